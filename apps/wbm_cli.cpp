@@ -1,0 +1,204 @@
+// wbm: command-line tool. Subcommands: model info | model fk | model export.
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "wbm/errors.hpp"
+#include "wbm/kinematics.hpp"
+#include "wbm/paper_model.hpp"
+#include "wbm/urdf_import.hpp"
+
+namespace {
+
+using nlohmann::json;
+
+/// Options every subcommand uses to pick a robot model.
+struct ModelSource {
+  std::string file;
+  wbm::UrdfImportOptions urdf;
+  bool drop_legs = false;
+
+  void add_to(CLI::App& app) {
+    app.add_option("file", file, "URDF file (default: the built-in paper model)");
+    app.add_option("--root", urdf.root, "URDF link that becomes the upper body (default: the URDF root)");
+    app.add_option("--legs", urdf.legs, "first link of each leg subtree")->delimiter(',');
+    app.add_flag("--drop-legs", drop_legs, "remove the legs instead of locking them at zero");
+    app.add_option("--root-height", urdf.root_height, "root link height above the ground [m]");
+    app.add_flag("--default-limits", urdf.default_limits,
+                 "give joints without limits [-pi, pi] rad, 2 rad/s ([-1, 1] m, 0.5 m/s prismatic)");
+  }
+
+  wbm::Model load() {
+    if (file.empty()) return wbm::make_paper_model();
+    urdf.leg_mode = drop_legs ? wbm::LegMode::kDrop : wbm::LegMode::kLock;
+    return wbm::load_urdf(file, urdf);
+  }
+};
+
+json number(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+json matrix_json(const Eigen::MatrixXd& M) {
+  json rows = json::array();
+  for (int r = 0; r < M.rows(); ++r) {
+    json row = json::array();
+    for (int c = 0; c < M.cols(); ++c) row.push_back(M(r, c));
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+int model_info(ModelSource& source, bool as_json) {
+  const wbm::Model model = source.load();
+  if (as_json) {
+    json out;
+    out["name"] = model.name();
+    out["total_mass"] = model.total_mass();
+    json dofs = json::array();
+    for (int i = 0; i < model.num_dofs(); ++i) {
+      const wbm::Dof& d = model.dof(i);
+      dofs.push_back({{"index", i}, {"name", d.name}, {"type", d.continuous ? "continuous" : wbm::to_string(d.type)},
+                      {"role", wbm::to_string(d.role)}, {"lower", number(d.lower)}, {"upper", number(d.upper)},
+                      {"max_speed", d.max_speed}, {"work_range", d.work_range}, {"home", model.home()[i]}});
+    }
+    out["dofs"] = dofs;
+    json frames = json::array();
+    for (const wbm::Frame& f : model.frames())
+      frames.push_back({{"name", f.name}, {"body", model.body(f.body).name}, {"offset", {f.X_BF.p.x(), f.X_BF.p.y(), f.X_BF.p.z()}}});
+    out["frames"] = frames;
+    std::cout << out.dump(2) << "\n";
+    return 0;
+  }
+  std::cout << "model " << model.name() << ": " << model.num_dofs() << " dofs, " << model.num_bodies() << " bodies, "
+            << model.num_frames() << " frames, total mass " << std::fixed << std::setprecision(3) << model.total_mass()
+            << " kg\n\n";
+  std::cout << " idx  name                         type        role              lower      upper  max speed  weight(range)\n";
+  for (int i = 0; i < model.num_dofs(); ++i) {
+    const wbm::Dof& d = model.dof(i);
+    std::cout << std::setw(4) << i << "  " << std::left << std::setw(28) << d.name << " " << std::setw(11)
+              << (d.continuous ? "continuous" : wbm::to_string(d.type)) << " " << std::setw(16) << wbm::to_string(d.role)
+              << std::right << std::setw(9) << d.lower << "  " << std::setw(9) << d.upper << "  " << std::setw(9)
+              << d.max_speed << "  " << std::setw(9) << d.work_range << "\n";
+  }
+  std::cout << "\nframes (body):";
+  for (const wbm::Frame& f : model.frames()) std::cout << "\n  " << f.name << " (" << model.body(f.body).name << ")";
+  std::cout << "\n";
+  return 0;
+}
+
+Eigen::VectorXd parse_configuration(const std::string& text, const wbm::Model& model) {
+  if (text.empty()) return model.home();
+  std::vector<double> values;
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    try {
+      size_t used = 0;
+      values.push_back(std::stod(item, &used));
+      if (used != item.size()) throw std::invalid_argument(item);
+    } catch (const std::exception&) {
+      throw wbm::ConfigError("--q: '" + item + "' is not a number");
+    }
+  }
+  if (static_cast<int>(values.size()) != model.num_dofs())
+    throw wbm::ConfigError("--q has " + std::to_string(values.size()) + " values; the model has " +
+                           std::to_string(model.num_dofs()) + " dofs (see `wbm model info`)");
+  return Eigen::Map<Eigen::VectorXd>(values.data(), values.size());
+}
+
+int model_fk(ModelSource& source, const std::string& q_text, std::vector<std::string> frame_names, bool jacobian) {
+  const wbm::Model model = source.load();
+  const Eigen::VectorXd q = parse_configuration(q_text, model);
+  wbm::Data data(model);
+  wbm::forward_kinematics(model, data, q);
+  if (frame_names.empty())
+    for (const wbm::Frame& f : model.frames()) frame_names.push_back(f.name);
+  json out;
+  out["q"] = std::vector<double>(q.data(), q.data() + q.size());
+  json frames = json::object();
+  Eigen::MatrixXd J(6, model.num_dofs());
+  for (const std::string& name : frame_names) {
+    const int id = model.frame_index(name);
+    const wbm::Transform X = wbm::frame_pose(model, data, id);
+    json f;
+    f["position"] = {X.p.x(), X.p.y(), X.p.z()};
+    f["rotation"] = matrix_json(X.R);
+    if (jacobian) {
+      wbm::frame_jacobian(model, data, id, J);
+      f["jacobian"] = matrix_json(J);
+    }
+    frames[name] = f;
+  }
+  out["frames"] = frames;
+  const wbm::Vector3 com = wbm::center_of_mass(model, data);
+  out["center_of_mass"] = {com.x(), com.y(), com.z()};
+  std::cout << std::setprecision(17) << out.dump(2) << "\n";
+  return 0;
+}
+
+int model_export(ModelSource& source, const std::string& output) {
+  const wbm::Model model = source.load();
+  const std::string text = wbm::export_urdf(model);
+  if (output.empty() || output == "-") {
+    std::cout << text;
+    return 0;
+  }
+  // Write to a temporary file and rename it, so that nothing half-written is left behind.
+  const std::string tmp = output + ".tmp";
+  {
+    std::ofstream out(tmp);
+    out << text;
+    if (!out) throw wbm::ConfigError(output + ": cannot write the file");
+  }
+  if (std::rename(tmp.c_str(), output.c_str()) != 0) throw wbm::ConfigError(output + ": cannot write the file");
+  std::cerr << "wrote " << output << "\n";
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"wbm: task-oriented whole-body motion control (Gienger, Janssen, Goerick 2005)"};
+  app.require_subcommand(1);
+  CLI::App* model_cmd = app.add_subcommand("model", "inspect robot models");
+  model_cmd->require_subcommand(1);
+
+  ModelSource info_source;
+  bool info_json = false;
+  CLI::App* info = model_cmd->add_subcommand("info", "list dofs, limits, frames and mass");
+  info_source.add_to(*info);
+  info->add_flag("--json", info_json, "machine-readable output");
+
+  ModelSource fk_source;
+  std::string q_text;
+  std::vector<std::string> fk_frames;
+  bool fk_jacobian = false;
+  bool fk_json = false;
+  CLI::App* fk = model_cmd->add_subcommand("fk", "world poses (and Jacobians) of frames for a configuration");
+  fk_source.add_to(*fk);
+  fk->add_option("--q", q_text, "configuration, comma separated, in `model info` order (default: home)");
+  fk->add_option("--frames", fk_frames, "frames to print (default: all)")->delimiter(',');
+  fk->add_flag("--jacobian", fk_jacobian, "also print 6 x n Jacobians (rows: v_x v_y v_z w_x w_y w_z, world frame)");
+  fk->add_flag("--json", fk_json, "JSON output (the only format)");
+
+  ModelSource export_source;
+  std::string export_out;
+  CLI::App* exp = model_cmd->add_subcommand("export", "write the model as URDF");
+  export_source.add_to(*exp);
+  exp->add_option("-o,--output", export_out, "output file (default: standard output)");
+
+  CLI11_PARSE(app, argc, argv);
+  try {
+    if (info->parsed()) return model_info(info_source, info_json);
+    if (fk->parsed()) return model_fk(fk_source, q_text, fk_frames, fk_jacobian);
+    if (exp->parsed()) return model_export(export_source, export_out);
+  } catch (const wbm::Error& e) {
+    std::cerr << "wbm: error: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}

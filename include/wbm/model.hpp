@@ -1,0 +1,164 @@
+#pragma once
+/// @file
+/// The immutable robot model: a tree of 1-dof joints in topological order.
+
+#include <array>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "wbm/transform.hpp"
+
+namespace wbm {
+
+enum class JointType { kRevolute, kPrismatic };
+
+/// What a dof stands for. The paper's virtual dofs (section II) carry their own role so
+/// that balance and walking can find them in any model.
+enum class DofRole { kJoint, kHeelX, kHeelY, kHeelYaw, kUpperBodyX, kUpperBodyY, kUpperBodyZ,
+                     kUpperBodyRoll, kUpperBodyPitch, kUpperBodyYaw };
+
+/// One independent degree of freedom, i.e. one entry of the state vector q (eq. 1).
+struct Dof {
+  std::string name;
+  JointType type = JointType::kRevolute;
+  DofRole role = DofRole::kJoint;
+  bool continuous = false;  ///< No position limits (lower = -inf, upper = +inf).
+  double lower = 0.0;       ///< Position limit [rad] or [m].
+  double upper = 0.0;       ///< Position limit [rad] or [m].
+  double max_speed = 0.0;   ///< Speed limit [rad/s] or [m/s], > 0.
+  /// Work range [rad] or [m] used for the weighting matrix W (section IV.C) and to
+  /// normalise the joint-limit criteria: upper - lower, 2*pi for continuous joints.
+  double work_range = 0.0;
+  /// Centre of the work range (joint-limit criteria); 0 for continuous joints.
+  double center() const { return continuous ? 0.0 : 0.5 * (lower + upper); }
+};
+
+/// Mass properties of a body.
+struct Inertial {
+  double mass = 0.0;                  ///< [kg]
+  Vector3 com = Vector3::Zero();      ///< Centre of mass in the body frame [m].
+  Matrix3 inertia = Matrix3::Zero();  ///< Inertia about the com, body axes [kg m^2].
+};
+
+/// One rigid body and the joint that connects it to its parent.
+/// Pose of the body: X_WB = X_WP * X_PJ * joint_motion(multiplier * q[dof] + offset).
+struct Body {
+  std::string name;
+  int parent = -1;          ///< Parent body index, -1 for the world. Always < own index.
+  Transform X_PJ;           ///< Joint frame in the parent frame (eq. 3's P r_PC and A_CP).
+  JointType joint_type = JointType::kRevolute;
+  Vector3 axis = Vector3::UnitZ();  ///< Unit joint axis, in the joint (= body) frame.
+  int dof = -1;             ///< Driving dof; -1 for a body welded to its parent.
+  double multiplier = 1.0;  ///< Mimic coupling: joint value = multiplier * q[dof] + offset.
+  double offset = 0.0;
+  Inertial inertial;
+};
+
+/// A named frame rigidly attached to a body: hand reference points, cameras, URDF links.
+/// Its z-axis is the "axis" used by 2-dof axis tasks (grasp axis, view axis).
+struct Frame {
+  std::string name;
+  int body = 0;
+  Transform X_BF;
+};
+
+/// Indices of the paper's virtual dofs in q (section II), -1 where a model has none.
+struct VirtualDofs {
+  int heel_x = -1, heel_y = -1, heel_yaw = -1;
+  int ub_x = -1, ub_y = -1, ub_z = -1, ub_roll = -1, ub_pitch = -1, ub_yaw = -1;
+  int heel_body = -1;        ///< Body whose frame is the heel frame.
+  int upper_body = -1;       ///< Body whose frame is the upper-body (root) frame.
+};
+
+/// Immutable robot model. Build it with ModelBuilder, the built-in paper model
+/// (make_paper_model) or the URDF importer. One model serves many Data and controllers.
+class Model {
+ public:
+  const std::string& name() const { return name_; }
+  int num_dofs() const { return static_cast<int>(dofs_.size()); }
+  int num_bodies() const { return static_cast<int>(bodies_.size()); }
+  int num_frames() const { return static_cast<int>(frames_.size()); }
+  const std::vector<Dof>& dofs() const { return dofs_; }
+  const Dof& dof(int i) const { return dofs_.at(i); }
+  const std::vector<Body>& bodies() const { return bodies_; }
+  const Body& body(int i) const { return bodies_.at(i); }
+  const std::vector<Frame>& frames() const { return frames_; }
+  const Frame& frame(int i) const { return frames_.at(i); }
+  const VirtualDofs& virtual_dofs() const { return virtual_dofs_; }
+
+  /// Total mass [kg].
+  double total_mass() const { return total_mass_; }
+  /// Mass of the subtree rooted at each body [kg].
+  const std::vector<double>& subtree_mass() const { return subtree_mass_; }
+  /// Home configuration: a relaxed pose inside all limits.
+  const Eigen::VectorXd& home() const { return home_; }
+  /// Lower / upper limits of all dofs as vectors (-inf/+inf for continuous joints).
+  const Eigen::VectorXd& lower_limits() const { return lower_; }
+  const Eigen::VectorXd& upper_limits() const { return upper_; }
+  const Eigen::VectorXd& max_speeds() const { return max_speed_; }
+
+  /// @throws ModelError naming the dof if there is none with this name.
+  int dof_index(const std::string& name) const;
+  /// @throws ModelError naming the frame (and listing a few known ones) if unknown.
+  int frame_index(const std::string& name) const;
+  /// -1 if unknown.
+  int find_frame(const std::string& name) const;
+  int find_dof(const std::string& name) const;
+  /// @throws ModelError if q has the wrong size, a NaN, or lies outside the limits.
+  void check_configuration(const Eigen::VectorXd& q) const;
+
+ private:
+  friend class ModelBuilder;
+  std::string name_;
+  std::vector<Dof> dofs_;
+  std::vector<Body> bodies_;
+  std::vector<Frame> frames_;
+  VirtualDofs virtual_dofs_;
+  double total_mass_ = 0.0;
+  std::vector<double> subtree_mass_;
+  Eigen::VectorXd home_, lower_, upper_, max_speed_;
+};
+
+/// Assembles and validates a Model.
+class ModelBuilder {
+ public:
+  explicit ModelBuilder(std::string name) { model_.name_ = std::move(name); }
+  /// Adds a dof and returns its index.
+  int add_dof(const Dof& dof);
+  /// Adds a body (its parent must already exist) and returns its index.
+  /// Also adds a frame with the body's name at the body origin.
+  int add_body(const Body& body);
+  /// Adds a named frame and returns its index.
+  int add_frame(const Frame& frame);
+  void set_virtual_dofs(const VirtualDofs& v) { model_.virtual_dofs_ = v; }
+  /// Home configuration; defaults to the dof centres.
+  void set_home(const Eigen::VectorXd& q) { home_ = q; }
+  int num_bodies() const { return static_cast<int>(model_.bodies_.size()); }
+  /// Validates everything and returns the model.
+  /// @throws ModelError naming the element (duplicate names, bad axes, negative masses,
+  ///   lower limit above upper, non-positive speed limits, a dof driving no body, ...).
+  Model build();
+
+ private:
+  Model model_;
+  Eigen::VectorXd home_;
+};
+
+/// Default ranges and speed limits of the virtual heel and upper-body dofs, for a robot
+/// whose upper-body origin stands `height` metres above the heel in the home pose.
+/// Documented in docs/model.md.
+std::array<Dof, 9> default_virtual_dofs(double height);
+
+/// Appends the nine virtual bodies (heel x, y, yaw; upper body x, y, z, roll, pitch, yaw)
+/// and their dofs, and records them as the model's virtual dofs. Returns the index of the last body (the upper body, named
+/// `upper_body_name`). The heel body is named "heel".
+int add_virtual_base(ModelBuilder& builder, double height, const std::string& upper_body_name,
+                     const Inertial& heel, const Inertial& upper_body);
+
+const char* to_string(JointType type);
+const char* to_string(DofRole role);
+
+}  // namespace wbm

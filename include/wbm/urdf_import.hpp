@@ -1,0 +1,54 @@
+#pragma once
+/// @file
+/// URDF import for any humanoid: the paper's virtual heel and upper-body dofs are put
+/// between the world and the chosen body root; leg subtrees are locked or dropped.
+
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "wbm/model.hpp"
+
+namespace wbm {
+
+/// What to do with the leg subtrees (the paper: legs belong to the balance/walking
+/// controller, section II).
+enum class LegMode {
+  kLock,  ///< Keep them welded at joint value 0 (frames and mass stay in the model).
+  kDrop,  ///< Remove them with their mass.
+};
+
+struct UrdfImportOptions {
+  /// Link that becomes the upper body (e.g. "pelvis", "torso"). Empty: the URDF's root
+  /// link, or the child of a root link named "world".
+  std::string root;
+  /// First link of every leg subtree (e.g. "left_hip_pitch_link"); the subtree away from
+  /// the root starting at this link is a leg. The link's own joint belongs to the leg.
+  std::vector<std::string> legs;
+  LegMode leg_mode = LegMode::kLock;
+  /// Height of the root link origin above the ground [m]. NaN: from the legs (the lowest
+  /// leg link origin at zero joint values), else 1 m.
+  double root_height = std::numeric_limits<double>::quiet_NaN();
+  /// Joints whose URDF lacks a position range (lower == upper) or, if not a mimic joint, a
+  /// speed limit are an error unless this is set; then revolute joints get [-pi, pi] and
+  /// 2 rad/s, prismatic joints [-1, 1] m and 0.5 m/s.
+  bool default_limits = false;
+};
+
+/// Loads a URDF file.
+/// @throws ParseError naming the file, the line and the element for malformed XML,
+///   unknown root/leg links, missing parents, kinematic loops, zero or non-unit axes,
+///   negative masses, lower limit above upper, missing limits.
+Model load_urdf(const std::string& path, const UrdfImportOptions& options = {});
+
+/// Same from a string; `source` names it in error messages.
+Model parse_urdf(const std::string& xml, const UrdfImportOptions& options = {},
+                 const std::string& source = "<string>");
+
+/// Writes a model as URDF: links and joints from the upper body down (the virtual heel
+/// and upper-body dofs are not URDF joints; import the file with root = the upper-body
+/// link and the same root height), named frames as fixed links, and the heel body's mass
+/// as a fixed link below the upper body at the home pose.
+std::string export_urdf(const Model& model);
+
+}  // namespace wbm

@@ -1,0 +1,116 @@
+#include "wbm/kinematics.hpp"
+
+#include <cmath>
+
+namespace wbm {
+namespace {
+
+/// Rotation by angle about a unit axis (Rodrigues), without Eigen's AngleAxis overhead.
+Matrix3 axis_rotation(const Vector3& u, double angle) {
+  const double s = std::sin(angle);
+  const double c = std::cos(angle);
+  const double t = 1.0 - c;
+  Matrix3 R;
+  R << t * u.x() * u.x() + c, t * u.x() * u.y() - s * u.z(), t * u.x() * u.z() + s * u.y(),
+      t * u.x() * u.y() + s * u.z(), t * u.y() * u.y() + c, t * u.y() * u.z() - s * u.x(),
+      t * u.x() * u.z() - s * u.y(), t * u.y() * u.z() + s * u.x(), t * u.z() * u.z() + c;
+  return R;
+}
+
+}  // namespace
+
+Data::Data(const Model& model)
+    : X_WB(model.num_bodies()), a_W(model.num_bodies(), Vector3::Zero()),
+      mc_W(model.num_bodies(), Vector3::Zero()) {}
+
+void forward_kinematics(const Model& model, Data& data, const Eigen::Ref<const Eigen::VectorXd>& q) {
+  const std::vector<Body>& bodies = model.bodies();
+  const int nb = static_cast<int>(bodies.size());
+  for (int b = 0; b < nb; ++b) {
+    const Body& body = bodies[b];
+    // Pose of the joint frame J in the world: X_WJ = X_WP * X_PJ (eq. 2 and 3).
+    Transform X_WJ = body.parent < 0 ? body.X_PJ : data.X_WB[body.parent] * body.X_PJ;
+    data.a_W[b] = X_WJ.R * body.axis;
+    if (body.dof >= 0) {
+      const double value = body.multiplier * q[body.dof] + body.offset;
+      if (body.joint_type == JointType::kRevolute) {
+        X_WJ.R = X_WJ.R * axis_rotation(body.axis, value);
+      } else {
+        X_WJ.p += data.a_W[b] * value;
+      }
+    }
+    data.X_WB[b] = X_WJ;
+  }
+}
+
+void point_jacobian(const Model& model, const Data& data, int body, const Vector3& p_WQ,
+                    Eigen::Ref<Eigen::MatrixXd> J) {
+  J.setZero();
+  for (int b = body; b >= 0; b = model.body(b).parent) {
+    const Body& B = model.bodies()[b];
+    if (B.dof < 0) continue;
+    if (B.joint_type == JointType::kRevolute) {
+      J.col(B.dof) += B.multiplier * data.a_W[b].cross(p_WQ - data.X_WB[b].p);
+    } else {
+      J.col(B.dof) += B.multiplier * data.a_W[b];
+    }
+  }
+}
+
+void rotational_jacobian(const Model& model, const Data& data, int body, Eigen::Ref<Eigen::MatrixXd> J) {
+  J.setZero();
+  for (int b = body; b >= 0; b = model.bodies()[b].parent) {
+    const Body& B = model.bodies()[b];
+    if (B.dof >= 0 && B.joint_type == JointType::kRevolute) J.col(B.dof) += B.multiplier * data.a_W[b];
+  }
+}
+
+void frame_jacobian(const Model& model, const Data& data, int frame, Eigen::Ref<Eigen::MatrixXd> J) {
+  const Frame& f = model.frame(frame);
+  const Vector3 p_WF = data.X_WB[f.body] * f.X_BF.p;
+  J.setZero();
+  for (int b = f.body; b >= 0; b = model.bodies()[b].parent) {
+    const Body& B = model.bodies()[b];
+    if (B.dof < 0) continue;
+    if (B.joint_type == JointType::kRevolute) {
+      J.col(B.dof).head<3>() += B.multiplier * data.a_W[b].cross(p_WF - data.X_WB[b].p);
+      J.col(B.dof).tail<3>() += B.multiplier * data.a_W[b];
+    } else {
+      J.col(B.dof).head<3>() += B.multiplier * data.a_W[b];
+    }
+  }
+}
+
+Vector3 center_of_mass(const Model& model, Data& data) {
+  const std::vector<Body>& bodies = model.bodies();
+  const int nb = static_cast<int>(bodies.size());
+  for (int b = 0; b < nb; ++b) data.mc_W[b] = bodies[b].inertial.mass * (data.X_WB[b] * bodies[b].inertial.com);
+  for (int b = nb - 1; b > 0; --b)
+    if (bodies[b].parent >= 0) data.mc_W[bodies[b].parent] += data.mc_W[b];
+  Vector3 mc = Vector3::Zero();
+  for (int b = 0; b < nb; ++b)
+    if (bodies[b].parent < 0) mc += data.mc_W[b];
+  data.p_WCm = mc / model.total_mass();
+  return data.p_WCm;
+}
+
+void com_jacobian(const Model& model, const Data& data, Eigen::Ref<Eigen::MatrixXd> J) {
+  // Column of joint i: a_i x (sum over the subtree of m_k (c_k - p_i)) / M for revolute,
+  // a_i * subtree mass / M for prismatic joints.
+  J.setZero();
+  const double inv_mass = 1.0 / model.total_mass();
+  const std::vector<Body>& bodies = model.bodies();
+  const int nb = static_cast<int>(bodies.size());
+  for (int b = 0; b < nb; ++b) {
+    const Body& B = bodies[b];
+    if (B.dof < 0) continue;
+    const double m_sub = model.subtree_mass()[b];
+    if (B.joint_type == JointType::kRevolute) {
+      J.col(B.dof) += (B.multiplier * inv_mass) * data.a_W[b].cross(data.mc_W[b] - m_sub * data.X_WB[b].p);
+    } else {
+      J.col(B.dof) += (B.multiplier * inv_mass * m_sub) * data.a_W[b];
+    }
+  }
+}
+
+}  // namespace wbm

@@ -1,0 +1,260 @@
+#include "wbm/model.hpp"
+
+#include <cmath>
+#include <sstream>
+#include <unordered_set>
+
+#include "wbm/errors.hpp"
+
+namespace wbm {
+namespace {
+
+constexpr double kAxisTolerance = 1e-5;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+std::string quoted(const std::string& s) { return "'" + s + "'"; }
+
+void check_inertial(const std::string& what, const Inertial& in) {
+  if (!std::isfinite(in.mass) || in.mass < 0.0)
+    throw ModelError(what + ": mass must be finite and >= 0 kg, got " + std::to_string(in.mass));
+  if (!in.com.allFinite() || !in.inertia.allFinite())
+    throw ModelError(what + ": centre of mass and inertia must be finite");
+}
+
+}  // namespace
+
+Vector3 rpy_from_rotation(const Matrix3& R) {
+  const double pitch = std::atan2(-R(2, 0), std::hypot(R(0, 0), R(1, 0)));
+  const double roll = std::atan2(R(2, 1), R(2, 2));
+  const double yaw = std::atan2(R(1, 0), R(0, 0));
+  return {roll, pitch, yaw};
+}
+
+const char* to_string(JointType type) {
+  return type == JointType::kRevolute ? "revolute" : "prismatic";
+}
+
+const char* to_string(DofRole role) {
+  switch (role) {
+    case DofRole::kJoint: return "joint";
+    case DofRole::kHeelX: return "heel_x";
+    case DofRole::kHeelY: return "heel_y";
+    case DofRole::kHeelYaw: return "heel_yaw";
+    case DofRole::kUpperBodyX: return "upper_body_x";
+    case DofRole::kUpperBodyY: return "upper_body_y";
+    case DofRole::kUpperBodyZ: return "upper_body_z";
+    case DofRole::kUpperBodyRoll: return "upper_body_roll";
+    case DofRole::kUpperBodyPitch: return "upper_body_pitch";
+    case DofRole::kUpperBodyYaw: return "upper_body_yaw";
+  }
+  return "?";
+}
+
+int Model::find_dof(const std::string& name) const {
+  for (int i = 0; i < num_dofs(); ++i)
+    if (dofs_[i].name == name) return i;
+  return -1;
+}
+
+int Model::find_frame(const std::string& name) const {
+  for (int i = 0; i < num_frames(); ++i)
+    if (frames_[i].name == name) return i;
+  return -1;
+}
+
+int Model::dof_index(const std::string& name) const {
+  const int i = find_dof(name);
+  if (i < 0) throw ModelError("model " + quoted(name_) + " has no dof named " + quoted(name));
+  return i;
+}
+
+int Model::frame_index(const std::string& name) const {
+  const int i = find_frame(name);
+  if (i >= 0) return i;
+  std::ostringstream msg;
+  msg << "model " << quoted(name_) << " has no frame named " << quoted(name) << "; frames are:";
+  for (int k = 0; k < num_frames() && k < 40; ++k) msg << " " << frames_[k].name;
+  if (num_frames() > 40) msg << " ...";
+  throw ModelError(msg.str());
+}
+
+void Model::check_configuration(const Eigen::VectorXd& q) const {
+  if (q.size() != num_dofs())
+    throw ModelError("configuration has " + std::to_string(q.size()) + " values, model " +
+                     quoted(name_) + " has " + std::to_string(num_dofs()) + " dofs");
+  for (int i = 0; i < num_dofs(); ++i) {
+    const Dof& d = dofs_[i];
+    if (!std::isfinite(q[i]))
+      throw ModelError("configuration value of dof " + quoted(d.name) + " is not finite");
+    if (q[i] < d.lower - 1e-9 || q[i] > d.upper + 1e-9) {
+      std::ostringstream msg;
+      msg << "configuration value " << q[i] << " of dof " << quoted(d.name) << " is outside ["
+          << d.lower << ", " << d.upper << "]";
+      throw ModelError(msg.str());
+    }
+  }
+}
+
+int ModelBuilder::add_dof(const Dof& dof) {
+  model_.dofs_.push_back(dof);
+  return static_cast<int>(model_.dofs_.size()) - 1;
+}
+
+int ModelBuilder::add_body(const Body& body) {
+  const int index = static_cast<int>(model_.bodies_.size());
+  if (body.parent < -1 || body.parent >= index)
+    throw ModelError("body " + quoted(body.name) + ": parent index " +
+                     std::to_string(body.parent) + " is not an earlier body");
+  model_.bodies_.push_back(body);
+  model_.frames_.push_back({body.name, index, Transform::Identity()});
+  return index;
+}
+
+int ModelBuilder::add_frame(const Frame& frame) {
+  model_.frames_.push_back(frame);
+  return static_cast<int>(model_.frames_.size()) - 1;
+}
+
+Model ModelBuilder::build() {
+  Model& m = model_;
+  const int nq = m.num_dofs();
+  const int nb = m.num_bodies();
+  std::unordered_set<std::string> names;
+  std::vector<int> driven(nq, 0);
+  for (int d = 0; d < nq; ++d) {
+    Dof& dof = m.dofs_[d];
+    const std::string what = "dof " + quoted(dof.name);
+    if (!names.insert(dof.name).second) throw ModelError("duplicate " + what);
+    if (dof.continuous) {
+      dof.lower = -kInf;
+      dof.upper = kInf;
+      if (dof.type != JointType::kRevolute) throw ModelError(what + ": only revolute joints can be continuous");
+      if (!(dof.work_range > 0.0)) dof.work_range = 2.0 * M_PI;
+    } else {
+      if (!std::isfinite(dof.lower) || !std::isfinite(dof.upper))
+        throw ModelError(what + ": position limits must be finite (or the joint continuous)");
+      if (dof.lower > dof.upper) {
+        std::ostringstream msg;
+        msg << what << ": lower limit " << dof.lower << " is above upper limit " << dof.upper;
+        throw ModelError(msg.str());
+      }
+      if (!(dof.work_range > 0.0)) dof.work_range = dof.upper - dof.lower;
+      if (!(dof.work_range > 0.0))
+        throw ModelError(what + ": zero motion range (lower == upper); lock the joint instead");
+    }
+    if (!std::isfinite(dof.max_speed) || dof.max_speed <= 0.0)
+      throw ModelError(what + ": speed limit must be finite and > 0, got " + std::to_string(dof.max_speed));
+  }
+  names.clear();
+  for (int b = 0; b < nb; ++b) {
+    Body& body = m.bodies_[b];
+    const std::string what = "body " + quoted(body.name);
+    if (!names.insert(body.name).second) throw ModelError("duplicate " + what);
+    if (body.dof >= nq) throw ModelError(what + ": dof index out of range");
+    if (body.dof >= 0) {
+      driven[body.dof] += 1;
+      const double n = body.axis.norm();
+      if (!std::isfinite(n) || n < 1e-12) throw ModelError(what + ": joint axis is zero");
+      if (std::abs(n - 1.0) > kAxisTolerance) {
+        std::ostringstream msg;
+        msg << what << ": joint axis (" << body.axis.transpose() << ") is not a unit vector (norm " << n << ")";
+        throw ModelError(msg.str());
+      }
+      body.axis /= n;
+      if (!std::isfinite(body.multiplier) || !std::isfinite(body.offset))
+        throw ModelError(what + ": mimic multiplier and offset must be finite");
+    }
+    if (!body.X_PJ.R.allFinite() || !body.X_PJ.p.allFinite())
+      throw ModelError(what + ": joint offset is not finite");
+    if (!(body.X_PJ.R.transpose() * body.X_PJ.R).isIdentity(1e-6))
+      throw ModelError(what + ": joint offset rotation is not orthonormal");
+    check_inertial(what, body.inertial);
+  }
+  for (int d = 0; d < nq; ++d)
+    if (driven[d] == 0) throw ModelError("dof " + quoted(m.dofs_[d].name) + " drives no body");
+  names.clear();
+  for (const Frame& f : m.frames_) {
+    if (!names.insert(f.name).second) throw ModelError("duplicate frame " + quoted(f.name));
+    if (f.body < 0 || f.body >= nb) throw ModelError("frame " + quoted(f.name) + ": body index out of range");
+  }
+
+  m.subtree_mass_.assign(nb, 0.0);
+  for (int b = nb - 1; b >= 0; --b) {
+    m.subtree_mass_[b] += m.bodies_[b].inertial.mass;
+    if (m.bodies_[b].parent >= 0) m.subtree_mass_[m.bodies_[b].parent] += m.subtree_mass_[b];
+  }
+  m.total_mass_ = 0.0;
+  for (const Body& b : m.bodies_) m.total_mass_ += b.inertial.mass;
+
+  m.lower_.resize(nq);
+  m.upper_.resize(nq);
+  m.max_speed_.resize(nq);
+  for (int d = 0; d < nq; ++d) {
+    m.lower_[d] = m.dofs_[d].lower;
+    m.upper_[d] = m.dofs_[d].upper;
+    m.max_speed_[d] = m.dofs_[d].max_speed;
+  }
+  if (home_.size() == 0) {
+    home_.resize(nq);
+    for (int d = 0; d < nq; ++d) home_[d] = m.dofs_[d].center();
+  }
+  m.home_ = home_;
+  m.check_configuration(m.home_);
+  return std::move(m);
+}
+
+std::array<Dof, 9> default_virtual_dofs(double height) {
+  const double pi = M_PI;
+  // Ranges of the virtual dofs are not given by the paper (see ERRATA.md). The heel may
+  // slide anywhere on a 20 m x 20 m floor and turn freely (it is frozen by b_C while
+  // standing); its work range (1 m) only sets its weight in W. The upper-body ranges
+  // approximate what a humanoid's legs allow: 8 cm sideways/forward shift, crouching by
+  // 20 % of the standing height, and moderate trunk tilts.
+  std::array<Dof, 9> d;
+  d[0] = {"heel_x", JointType::kPrismatic, DofRole::kHeelX, false, -10.0, 10.0, 0.5, 1.0};
+  d[1] = {"heel_y", JointType::kPrismatic, DofRole::kHeelY, false, -10.0, 10.0, 0.5, 1.0};
+  d[2] = {"heel_yaw", JointType::kRevolute, DofRole::kHeelYaw, true, -pi, pi, 0.8, 2.0 * pi};
+  d[3] = {"upper_body_x", JointType::kPrismatic, DofRole::kUpperBodyX, false, -0.08, 0.08, 0.3, 0.0};
+  d[4] = {"upper_body_y", JointType::kPrismatic, DofRole::kUpperBodyY, false, -0.08, 0.08, 0.3, 0.0};
+  d[5] = {"upper_body_z", JointType::kPrismatic, DofRole::kUpperBodyZ, false, 0.8 * height, height,
+          0.3, 0.0};
+  d[6] = {"upper_body_roll", JointType::kRevolute, DofRole::kUpperBodyRoll, false, -0.2, 0.2, 1.0, 0.0};
+  d[7] = {"upper_body_pitch", JointType::kRevolute, DofRole::kUpperBodyPitch, false, -0.2, 0.5, 1.0, 0.0};
+  d[8] = {"upper_body_yaw", JointType::kRevolute, DofRole::kUpperBodyYaw, false, -0.7, 0.7, 1.0, 0.0};
+  return d;
+}
+
+int add_virtual_base(ModelBuilder& builder, double height, const std::string& upper_body_name,
+                     const Inertial& heel, const Inertial& upper_body) {
+  if (!std::isfinite(height) || height <= 0.0)
+    throw ModelError("upper-body height above the heel must be > 0 m, got " + std::to_string(height));
+  const std::array<Dof, 9> dofs = default_virtual_dofs(height);
+  const std::array<const char*, 9> body_names = {"heel_x", "heel_y", "heel", "upper_body_x",
+                                                 "upper_body_y", "upper_body_z", "upper_body_roll",
+                                                 "upper_body_pitch", ""};
+  const std::array<Vector3, 9> axes = {Vector3::UnitX(), Vector3::UnitY(), Vector3::UnitZ(),
+                                       Vector3::UnitX(), Vector3::UnitY(), Vector3::UnitZ(),
+                                       Vector3::UnitX(), Vector3::UnitY(), Vector3::UnitZ()};
+  VirtualDofs v;
+  int* dof_slots[9] = {&v.heel_x, &v.heel_y, &v.heel_yaw, &v.ub_x, &v.ub_y, &v.ub_z,
+                       &v.ub_roll, &v.ub_pitch, &v.ub_yaw};
+  int parent = -1;
+  for (int k = 0; k < 9; ++k) {
+    Body body;
+    body.name = k == 8 ? upper_body_name : body_names[k];
+    body.parent = parent;
+    body.joint_type = dofs[k].type;
+    body.axis = axes[k];
+    body.dof = builder.add_dof(dofs[k]);
+    if (k == 2) body.inertial = heel;
+    if (k == 8) body.inertial = upper_body;
+    *dof_slots[k] = body.dof;
+    parent = builder.add_body(body);
+    if (k == 2) v.heel_body = parent;
+  }
+  v.upper_body = parent;
+  builder.set_virtual_dofs(v);
+  return parent;
+}
+
+}  // namespace wbm

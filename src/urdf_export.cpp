@@ -1,0 +1,82 @@
+#include <iomanip>
+#include <sstream>
+
+#include "wbm/kinematics.hpp"
+#include "wbm/urdf_import.hpp"
+
+namespace wbm {
+namespace {
+
+std::string vec(const Vector3& v) {
+  std::ostringstream out;
+  out << std::setprecision(17) << v.x() << " " << v.y() << " " << v.z();
+  return out.str();
+}
+
+std::string origin(const Transform& X) {
+  return "<origin xyz=\"" + vec(X.p) + "\" rpy=\"" + vec(rpy_from_rotation(X.R)) + "\"/>";
+}
+
+void write_inertial(std::ostream& out, const Inertial& in) {
+  if (in.mass <= 0.0) return;
+  const Matrix3& I = in.inertia;
+  out << std::setprecision(17) << "    <inertial>\n      <origin xyz=\"" << vec(in.com)
+      << "\" rpy=\"0 0 0\"/>\n      <mass value=\"" << in.mass << "\"/>\n      <inertia ixx=\"" << I(0, 0)
+      << "\" ixy=\"" << I(0, 1) << "\" ixz=\"" << I(0, 2) << "\" iyy=\"" << I(1, 1) << "\" iyz=\"" << I(1, 2)
+      << "\" izz=\"" << I(2, 2) << "\"/>\n    </inertial>\n";
+}
+
+}  // namespace
+
+std::string export_urdf(const Model& model) {
+  const VirtualDofs& v = model.virtual_dofs();
+  const int root = v.upper_body >= 0 ? v.upper_body : 0;
+  std::ostringstream out;
+  out << std::setprecision(17);
+  out << "<?xml version=\"1.0\"?>\n<!-- Written by wbm from model '" << model.name()
+      << "'. Import with root '" << model.body(root).name << "'. -->\n<robot name=\"" << model.name() << "\">\n";
+  out << "  <link name=\"" << model.body(root).name << "\">\n";
+  write_inertial(out, model.body(root).inertial);
+  out << "  </link>\n";
+  if (v.heel_body >= 0 && model.body(v.heel_body).inertial.mass > 0.0) {
+    // The heel body's mass, welded below the upper body at the home pose.
+    Data data(model);
+    forward_kinematics(model, data, model.home());
+    const Transform X_UH = data.X_WB[root].inverse() * data.X_WB[v.heel_body];
+    out << "  <link name=\"heel_mass\">\n";
+    write_inertial(out, model.body(v.heel_body).inertial);
+    out << "  </link>\n  <joint name=\"heel_mass_joint\" type=\"fixed\">\n    <parent link=\""
+        << model.body(root).name << "\"/>\n    <child link=\"heel_mass\"/>\n    " << origin(X_UH) << "\n  </joint>\n";
+  }
+  std::vector<bool> driven(model.num_dofs(), false);
+  for (int b = root + 1; b < model.num_bodies(); ++b) {
+    const Body& body = model.body(b);
+    out << "  <link name=\"" << body.name << "\">\n";
+    write_inertial(out, body.inertial);
+    out << "  </link>\n";
+    const Dof& dof = model.dof(body.dof);
+    // The first body a dof drives carries the dof's name; later ones are mimic joints.
+    const bool primary = !driven[body.dof];
+    driven[body.dof] = true;
+    const char* type = dof.continuous ? "continuous" : to_string(body.joint_type);
+    out << "  <joint name=\"" << (primary ? dof.name : body.name + "_joint") << "\" type=\"" << type
+        << "\">\n    <parent link=\"" << model.body(body.parent).name << "\"/>\n    <child link=\"" << body.name
+        << "\"/>\n    " << origin(body.X_PJ) << "\n    <axis xyz=\"" << vec(body.axis) << "\"/>\n    <limit lower=\""
+        << (dof.continuous ? 0.0 : dof.lower) << "\" upper=\"" << (dof.continuous ? 0.0 : dof.upper)
+        << "\" effort=\"0\" velocity=\"" << dof.max_speed << "\"/>\n";
+    if (!primary)
+      out << "    <mimic joint=\"" << dof.name << "\" multiplier=\"" << body.multiplier << "\" offset=\""
+          << body.offset << "\"/>\n";
+    out << "  </joint>\n";
+  }
+  for (const Frame& f : model.frames()) {
+    if (f.name == model.body(f.body).name || f.body < root) continue;
+    out << "  <link name=\"" << f.name << "\"/>\n  <joint name=\"" << f.name << "_joint\" type=\"fixed\">\n    <parent link=\""
+        << model.body(f.body).name << "\"/>\n    <child link=\"" << f.name << "\"/>\n    " << origin(f.X_BF)
+        << "\n  </joint>\n";
+  }
+  out << "</robot>\n";
+  return out.str();
+}
+
+}  // namespace wbm

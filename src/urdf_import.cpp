@@ -1,0 +1,483 @@
+#include "wbm/urdf_import.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include <console_bridge/console.h>
+#include <tinyxml.h>
+#include <urdf_parser/urdf_parser.h>
+
+#include "wbm/errors.hpp"
+
+namespace wbm {
+namespace {
+
+std::string quoted(const std::string& s) { return "'" + s + "'"; }
+
+/// Where an element of the file is, for messages "FILE:LINE: ...".
+struct Located {
+  std::string name;
+  int line = 0;
+};
+
+struct JointInfo : Located {
+  std::string type, parent, child, mimic;
+};
+
+/// Structural check of the XML with line numbers, before urdfdom builds the model.
+/// urdfdom reports errors without lines (and for some of them not at all), so every
+/// error a user can make in the structure is caught here first.
+class UrdfChecker {
+ public:
+  UrdfChecker(const std::string& xml, const std::string& source, const UrdfImportOptions& options)
+      : source_(source), options_(options) {
+    TiXmlDocument doc;
+    doc.Parse(xml.c_str(), nullptr, TIXML_ENCODING_UTF8);
+    if (doc.Error()) fail(doc.ErrorRow(), std::string("malformed XML: ") + doc.ErrorDesc());
+    const TiXmlElement* robot = doc.RootElement();
+    if (robot == nullptr) fail(1, "malformed XML: no root element");
+    if (std::string(robot->Value()) != "robot")
+      fail(robot->Row(), std::string("expected a <robot> root element, found <") + robot->Value() + ">");
+    for (const TiXmlElement* e = robot->FirstChildElement("link"); e; e = e->NextSiblingElement("link"))
+      check_link(e);
+    for (const TiXmlElement* e = robot->FirstChildElement("joint"); e; e = e->NextSiblingElement("joint"))
+      check_joint(e);
+    if (links_.empty()) fail(robot->Row(), "<robot> has no <link>");
+    check_tree();
+  }
+
+  [[noreturn]] void fail(int line, const std::string& message) const {
+    throw ParseError(source_ + ":" + std::to_string(line) + ": " + message);
+  }
+  int link_line(const std::string& link) const { return links_.at(link).line; }
+  const std::vector<JointInfo>& joints() const { return joints_; }
+  const JointInfo& joint(const std::string& name) const { return joints_[joint_index_.at(name)]; }
+  bool has_link(const std::string& name) const { return links_.count(name) > 0; }
+  const std::string& root() const { return root_; }
+
+ private:
+  static const char* attribute(const TiXmlElement* e, const char* name) { return e->Attribute(name); }
+
+  std::string required(const TiXmlElement* e, const char* attr, const std::string& what) const {
+    const char* v = e->Attribute(attr);
+    if (v == nullptr || *v == '\0')
+      fail(e->Row(), what + ": <" + e->Value() + "> lacks the attribute '" + attr + "'");
+    return v;
+  }
+
+  std::vector<double> numbers(const TiXmlElement* e, const char* attr, size_t count,
+                              const std::string& what) const {
+    std::istringstream in(required(e, attr, what));
+    std::vector<double> values;
+    std::string token;
+    while (in >> token) {
+      char* end = nullptr;
+      const double v = std::strtod(token.c_str(), &end);
+      if (end == token.c_str() || *end != '\0' || !std::isfinite(v))
+        fail(e->Row(), what + ": <" + e->Value() + " " + attr + "> has '" + token +
+                           "' where a finite number was expected");
+      values.push_back(v);
+    }
+    if (values.size() != count)
+      fail(e->Row(), what + ": <" + e->Value() + " " + attr + "> needs " + std::to_string(count) +
+                         " numbers, found " + std::to_string(values.size()));
+    return values;
+  }
+
+  void check_link(const TiXmlElement* e) {
+    const std::string name = required(e, "name", "link");
+    const std::string what = "link " + quoted(name);
+    if (links_.count(name))
+      fail(e->Row(), "duplicate " + what + " (first defined on line " +
+                         std::to_string(links_[name].line) + ")");
+    links_[name] = {name, e->Row()};
+    if (const TiXmlElement* inertial = e->FirstChildElement("inertial")) {
+      const TiXmlElement* mass = inertial->FirstChildElement("mass");
+      if (mass == nullptr) fail(inertial->Row(), what + ": <inertial> lacks <mass>");
+      const double m = numbers(mass, "value", 1, what)[0];
+      if (m < 0.0) fail(mass->Row(), what + ": negative mass " + std::to_string(m) + " kg (expected >= 0)");
+      if (const TiXmlElement* origin = inertial->FirstChildElement("origin")) check_origin(origin, what);
+    }
+  }
+
+  void check_origin(const TiXmlElement* origin, const std::string& what) const {
+    if (origin->Attribute("xyz")) numbers(origin, "xyz", 3, what);
+    if (origin->Attribute("rpy")) numbers(origin, "rpy", 3, what);
+  }
+
+  void check_joint(const TiXmlElement* e) {
+    JointInfo j;
+    j.name = required(e, "name", "joint");
+    j.line = e->Row();
+    const std::string what = "joint " + quoted(j.name);
+    if (joint_index_.count(j.name))
+      fail(j.line, "duplicate " + what + " (first defined on line " +
+                       std::to_string(joints_[joint_index_[j.name]].line) + ")");
+    j.type = required(e, "type", what);
+    static const std::set<std::string> kTypes = {"revolute", "continuous", "prismatic", "fixed", "floating"};
+    if (j.type == "planar") fail(j.line, what + ": planar joints are not supported");
+    if (!kTypes.count(j.type))
+      fail(j.line, what + ": unknown type " + quoted(j.type) +
+                       " (expected revolute, continuous, prismatic, fixed or floating)");
+    const TiXmlElement* parent = e->FirstChildElement("parent");
+    const TiXmlElement* child = e->FirstChildElement("child");
+    if (parent == nullptr) fail(j.line, what + " has no <parent link=...>");
+    if (child == nullptr) fail(j.line, what + " has no <child link=...>");
+    j.parent = required(parent, "link", what);
+    j.child = required(child, "link", what);
+    if (const TiXmlElement* origin = e->FirstChildElement("origin")) check_origin(origin, what);
+    const bool movable = j.type == "revolute" || j.type == "continuous" || j.type == "prismatic";
+    if (const TiXmlElement* mimic = e->FirstChildElement("mimic")) j.mimic = required(mimic, "joint", what);
+    if (movable) {
+      if (const TiXmlElement* axis = e->FirstChildElement("axis")) {
+        const std::vector<double> a = numbers(axis, "xyz", 3, what);
+        const double n = std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+        if (n < 1e-12) fail(axis->Row(), what + ": joint axis is zero (expected a unit vector)");
+        if (std::abs(n - 1.0) > 1e-5) {
+          std::ostringstream msg;
+          msg << what << ": joint axis has norm " << n << " (expected a unit vector)";
+          fail(axis->Row(), msg.str());
+        }
+      }
+      check_limits(e, j, what);
+    }
+    joint_index_[j.name] = joints_.size();
+    joints_.push_back(j);
+  }
+
+  void check_limits(const TiXmlElement* e, const JointInfo& j, const std::string& what) const {
+    const TiXmlElement* limit = e->FirstChildElement("limit");
+    const bool bounded = j.type != "continuous";
+    if (limit == nullptr) {
+      if (bounded && !options_.default_limits)
+        fail(j.line, what + " (" + j.type + ") has no <limit>; add one or import with default limits");
+      if (!bounded && j.mimic.empty() && !options_.default_limits)
+        fail(j.line, what + " (continuous) has no <limit velocity=...>; add one or import with default limits");
+      return;
+    }
+    const double lower = limit->Attribute("lower") ? numbers(limit, "lower", 1, what)[0] : 0.0;
+    const double upper = limit->Attribute("upper") ? numbers(limit, "upper", 1, what)[0] : 0.0;
+    if (bounded && lower > upper) {
+      std::ostringstream msg;
+      msg << what << ": lower limit " << lower << " is above upper limit " << upper;
+      fail(limit->Row(), msg.str());
+    }
+    if (bounded && lower == upper && j.mimic.empty() && !options_.default_limits)
+      fail(limit->Row(), what + ": no position range (lower == upper); give lower < upper or import with default limits");
+    const double velocity = limit->Attribute("velocity") ? numbers(limit, "velocity", 1, what)[0] : 0.0;
+    if (velocity <= 0.0 && j.mimic.empty() && !options_.default_limits)
+      fail(limit->Row(), what + ": no speed limit (<limit velocity> must be > 0); add one or import with default limits");
+  }
+
+  void check_tree() {
+    std::map<std::string, const JointInfo*> parent_joint;
+    for (const JointInfo& j : joints_) {
+      const std::string what = "joint " + quoted(j.name);
+      if (!links_.count(j.parent)) fail(j.line, what + ": parent link " + quoted(j.parent) + " is not defined");
+      if (!links_.count(j.child)) fail(j.line, what + ": child link " + quoted(j.child) + " is not defined");
+      if (j.parent == j.child) fail(j.line, what + " connects link " + quoted(j.child) + " to itself (kinematic loop)");
+      if (parent_joint.count(j.child)) {
+        const JointInfo* other = parent_joint[j.child];
+        fail(j.line, "kinematic loop: link " + quoted(j.child) + " is the child of " + what +
+                         " and of joint " + quoted(other->name) + " (line " + std::to_string(other->line) + ")");
+      }
+      parent_joint[j.child] = &j;
+    }
+    for (const JointInfo& j : joints_)
+      if (!j.mimic.empty() && !joint_index_.count(j.mimic))
+        fail(j.line, "joint " + quoted(j.name) + " mimics joint " + quoted(j.mimic) + ", which is not defined");
+    std::vector<std::string> roots;
+    for (const auto& [name, link] : links_)
+      if (!parent_joint.count(name)) roots.push_back(name);
+    if (roots.empty()) fail(joints_.front().line, "kinematic loop: every link has a parent joint, there is no root link");
+    if (roots.size() > 1) {
+      std::string list;
+      for (const std::string& r : roots) list += " " + quoted(r) + " (line " + std::to_string(links_[r].line) + ")";
+      fail(links_[roots[1]].line, "the links do not form one tree; root links:" + list);
+    }
+    root_ = roots.front();
+    // With one parent per link and one root, a link that does not reach the root through
+    // its parents lies on a loop.
+    for (const auto& [name, link] : links_) {
+      std::string at = name;
+      for (size_t steps = 0; at != root_; ++steps) {
+        if (steps > links_.size()) {
+          const JointInfo* j = parent_joint[name];
+          fail(j->line, "kinematic loop through link " + quoted(name) + " and joint " + quoted(j->name));
+        }
+        at = parent_joint[at]->parent;
+      }
+    }
+  }
+
+  std::string source_;
+  const UrdfImportOptions& options_;
+  std::map<std::string, Located> links_;
+  std::vector<JointInfo> joints_;
+  std::map<std::string, size_t> joint_index_;
+  std::string root_;
+};
+
+/// Collects urdfdom's console output while it parses, so that its message can be shown.
+class ConsoleCapture : public console_bridge::OutputHandler {
+ public:
+  ConsoleCapture() { console_bridge::useOutputHandler(this); }
+  ~ConsoleCapture() override { console_bridge::restorePreviousOutputHandler(); }
+  void log(const std::string& text, console_bridge::LogLevel level, const char*, int) override {
+    if (level >= console_bridge::CONSOLE_BRIDGE_LOG_WARN) text_ += (text_.empty() ? "" : "; ") + text;
+  }
+  const std::string& text() const { return text_; }
+
+ private:
+  std::string text_;
+};
+
+Transform to_transform(const urdf::Pose& pose) {
+  Transform X;
+  X.p = {pose.position.x, pose.position.y, pose.position.z};
+  X.R = Eigen::Quaterniond(pose.rotation.w, pose.rotation.x, pose.rotation.y, pose.rotation.z)
+            .normalized()
+            .toRotationMatrix();
+  return X;
+}
+
+Vector3 to_vector(const urdf::Vector3& v) { return {v.x, v.y, v.z}; }
+
+/// Inertial of a link, expressed in the frame of the body it is welded to (X_BL).
+Inertial link_inertial(const urdf::Link& link, const Transform& X_BL) {
+  Inertial in;
+  if (!link.inertial) return in;
+  const urdf::Inertial& u = *link.inertial;
+  const Transform X_BI = X_BL * to_transform(u.origin);
+  Matrix3 I;
+  I << u.ixx, u.ixy, u.ixz, u.ixy, u.iyy, u.iyz, u.ixz, u.iyz, u.izz;
+  in.mass = u.mass;
+  in.com = X_BI.p;
+  in.inertia = X_BI.R * I * X_BI.R.transpose();
+  return in;
+}
+
+/// Adds b to a (both in the same body frame): combined mass, com and inertia about the
+/// combined com (parallel-axis theorem).
+void merge_inertial(Inertial& a, const Inertial& b) {
+  const double m = a.mass + b.mass;
+  if (m <= 0.0) return;
+  const Vector3 c = (a.mass * a.com + b.mass * b.com) / m;
+  auto shifted = [&c](const Inertial& in) {
+    const Vector3 d = in.com - c;
+    return Matrix3(in.inertia + in.mass * (d.squaredNorm() * Matrix3::Identity() - d * d.transpose()));
+  };
+  a.inertia = shifted(a) + shifted(b);
+  a.com = c;
+  a.mass = m;
+}
+
+Transform joint_motion(const urdf::Joint& j, double value) {
+  Transform X;
+  const Vector3 axis = to_vector(j.axis).normalized();
+  if (j.type == urdf::Joint::PRISMATIC) {
+    X.p = axis * value;
+  } else if (j.type == urdf::Joint::REVOLUTE || j.type == urdf::Joint::CONTINUOUS) {
+    X.R = Eigen::AngleAxisd(value, axis).toRotationMatrix();
+  }
+  return X;
+}
+
+/// A body to be created, before dofs are numbered. Index 0 is the root link.
+struct BodySpec {
+  Body body;
+  const urdf::Joint* joint = nullptr;
+};
+
+/// Walks the URDF as an undirected tree from the chosen root, folding fixed joints and
+/// locked legs into bodies and reversing joints that point towards the root.
+class TreeBuilder {
+ public:
+  TreeBuilder(const urdf::ModelInterface& urdf, const UrdfChecker& checker, const UrdfImportOptions& options)
+      : urdf_(urdf), checker_(checker), options_(options), legs_(options.legs.begin(), options.legs.end()) {
+    for (const JointInfo& j : checker.joints()) {
+      neighbours_[j.parent].push_back(&j);
+      neighbours_[j.child].push_back(&j);
+    }
+  }
+
+  void build(const std::string& root) {
+    BodySpec spec;
+    spec.body.name = root;
+    specs_.push_back(spec);
+    visit(root, 0, Transform::Identity(), nullptr, Mode::kNormal);
+  }
+
+  std::vector<BodySpec> specs_;
+  std::vector<Frame> frames_;
+  double lowest_leg_z_ = std::numeric_limits<double>::infinity();
+
+ private:
+  enum class Mode { kNormal, kLocked, kDropped };
+
+  void visit(const std::string& link_name, int body, const Transform& X_BL, const JointInfo* from, Mode mode) {
+    const urdf::Link& link = *urdf_.links_.at(link_name);
+    if (mode != Mode::kDropped) {
+      if (!(specs_[body].body.name == link_name && X_BL.p.isZero() && X_BL.R.isIdentity()))
+        frames_.push_back({link_name, body, X_BL});
+      merge_inertial(specs_[body].body.inertial, link_inertial(link, X_BL));
+    }
+    if (mode != Mode::kNormal && body == 0) lowest_leg_z_ = std::min(lowest_leg_z_, X_BL.p.z());
+    for (const JointInfo* info : neighbours_.at(link_name)) {
+      if (info == from) continue;
+      const urdf::Joint& joint = *urdf_.joints_.at(info->name);
+      const bool forward = info->parent == link_name;
+      const std::string& other = forward ? info->child : info->parent;
+      if (joint.type == urdf::Joint::FLOATING) continue;  // a world link: cut here
+      Mode child_mode = mode;
+      if (mode == Mode::kNormal && legs_.count(other))
+        child_mode = options_.leg_mode == LegMode::kDrop ? Mode::kDropped : Mode::kLocked;
+      const Transform X_PC0 = to_transform(joint.parent_to_joint_origin_transform);
+      if (joint.type == urdf::Joint::FIXED || child_mode != Mode::kNormal) {
+        // Welded: fixed joint or locked leg at joint value 0 (mimic joints at their offset).
+        const double value = joint.mimic ? joint.mimic->offset : 0.0;
+        const Transform X_PC = X_PC0 * joint_motion(joint, value);
+        visit(other, body, X_BL * (forward ? X_PC : X_PC.inverse()), info, child_mode);
+        continue;
+      }
+      BodySpec spec;
+      spec.joint = &joint;
+      spec.body.parent = body;
+      spec.body.joint_type = joint.type == urdf::Joint::PRISMATIC ? JointType::kPrismatic : JointType::kRevolute;
+      const Vector3 axis = to_vector(joint.axis).normalized();
+      Transform X_BO;  // pose of the other link in the new body
+      if (forward) {
+        spec.body.name = other;
+        spec.body.X_PJ = X_BL * X_PC0;
+        spec.body.axis = axis;
+      } else {
+        // Reversed joint: X_CP = motion(a, q)^-1 * X_PC0^-1 = motion(-a, q) * X_PC0^-1. The new
+        // body's frame is the child link's frame moved by motion(-a, q); q keeps its meaning.
+        spec.body.name = checker_.has_link(joint.name) ? joint.name + "_reversed" : joint.name;
+        spec.body.X_PJ = X_BL;
+        spec.body.axis = -axis;
+        X_BO = X_PC0.inverse();
+      }
+      specs_.push_back(spec);
+      visit(other, static_cast<int>(specs_.size()) - 1, X_BO, info, Mode::kNormal);
+    }
+  }
+
+  const urdf::ModelInterface& urdf_;
+  const UrdfChecker& checker_;
+  const UrdfImportOptions& options_;
+  std::set<std::string> legs_;
+  std::map<std::string, std::vector<const JointInfo*>> neighbours_;
+};
+
+Dof dof_from_joint(const urdf::Joint& joint, const UrdfChecker& checker, const UrdfImportOptions& options) {
+  Dof dof;
+  dof.name = joint.name;
+  dof.type = joint.type == urdf::Joint::PRISMATIC ? JointType::kPrismatic : JointType::kRevolute;
+  dof.continuous = joint.type == urdf::Joint::CONTINUOUS;
+  const bool prismatic = dof.type == JointType::kPrismatic;
+  const double default_range = prismatic ? 1.0 : M_PI;
+  const double default_speed = prismatic ? 0.5 : 2.0;
+  if (joint.limits && joint.limits->lower < joint.limits->upper) {
+    dof.lower = joint.limits->lower;
+    dof.upper = joint.limits->upper;
+  } else if (!dof.continuous) {
+    if (!options.default_limits)
+      checker.fail(checker.joint(joint.name).line, "joint " + quoted(joint.name) + " has no position range");
+    dof.lower = -default_range;
+    dof.upper = default_range;
+  }
+  dof.max_speed = joint.limits && joint.limits->velocity > 0.0 ? joint.limits->velocity : default_speed;
+  return dof;
+}
+
+std::string root_link(const UrdfChecker& checker, const urdf::ModelInterface& urdf, const UrdfImportOptions& options,
+                      const std::string& source) {
+  if (!options.root.empty()) {
+    if (!checker.has_link(options.root))
+      throw ParseError(source + ": root link " + quoted(options.root) + " is not defined in the URDF");
+    return options.root;
+  }
+  // A massless root link ("world") with a single fixed or floating joint is not a body.
+  const urdf::Link& root = *urdf.links_.at(checker.root());
+  if ((!root.inertial || root.inertial->mass == 0.0) && root.child_joints.size() == 1 &&
+      (root.child_joints[0]->type == urdf::Joint::FIXED || root.child_joints[0]->type == urdf::Joint::FLOATING))
+    return root.child_joints[0]->child_link_name;
+  return checker.root();
+}
+
+}  // namespace
+
+Model load_urdf(const std::string& path, const UrdfImportOptions& options) {
+  std::ifstream in(path);
+  if (!in) throw ParseError(path + ": cannot open the file");
+  std::stringstream text;
+  text << in.rdbuf();
+  return parse_urdf(text.str(), options, path);
+}
+
+Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const std::string& source) {
+  const UrdfChecker checker(xml, source, options);
+  urdf::ModelInterfaceSharedPtr urdf;
+  std::string urdfdom_message;
+  {
+    ConsoleCapture capture;
+    urdf = urdf::parseURDF(xml);
+    urdfdom_message = capture.text();
+  }
+  if (!urdf) throw ParseError(source + ": urdfdom rejected the file: " + urdfdom_message);
+
+  for (const std::string& leg : options.legs)
+    if (!checker.has_link(leg)) throw ParseError(source + ": leg link " + quoted(leg) + " is not defined in the URDF");
+  const std::string root = root_link(checker, *urdf, options, source);
+  for (const std::string& leg : options.legs)
+    if (leg == root) throw ParseError(source + ": leg link " + quoted(leg) + " is the root link");
+
+  TreeBuilder tree(*urdf, checker, options);
+  tree.build(root);
+  double height = options.root_height;
+  if (std::isnan(height)) height = std::isfinite(tree.lowest_leg_z_) ? -tree.lowest_leg_z_ : 1.0;
+  if (!(height > 0.0))
+    throw ParseError(source + ": the root height above the ground must be > 0 m (the legs' lowest link is above the root; "
+                              "give the root height explicitly)");
+
+  ModelBuilder builder(urdf->getName());
+  const int ub = add_virtual_base(builder, height, root, Inertial{}, tree.specs_[0].body.inertial);
+  // Number the dofs in body order; mimic joints share their master's dof.
+  std::map<std::string, int> dof_of_joint;
+  for (const BodySpec& spec : tree.specs_)
+    if (spec.joint && !spec.joint->mimic)
+      dof_of_joint[spec.joint->name] = builder.add_dof(dof_from_joint(*spec.joint, checker, options));
+  for (size_t i = 1; i < tree.specs_.size(); ++i) {
+    Body body = tree.specs_[i].body;
+    const urdf::Joint& joint = *tree.specs_[i].joint;
+    body.parent = body.parent == 0 ? ub : ub + body.parent;
+    if (joint.mimic) {
+      const auto master = dof_of_joint.find(joint.mimic->joint_name);
+      if (master == dof_of_joint.end())
+        checker.fail(checker.joint(joint.name).line,
+                     "joint " + quoted(joint.name) + " mimics " + quoted(joint.mimic->joint_name) +
+                         ", which is not a free joint of the imported body (locked, dropped, fixed or itself a mimic)");
+      body.dof = master->second;
+      body.multiplier = joint.mimic->multiplier;
+      body.offset = joint.mimic->offset;
+    } else {
+      body.dof = dof_of_joint.at(joint.name);
+    }
+    builder.add_body(body);
+  }
+  for (Frame frame : tree.frames_) {
+    frame.body = frame.body == 0 ? ub : ub + frame.body;
+    builder.add_frame(frame);
+  }
+  try {
+    return builder.build();
+  } catch (const ModelError& e) {
+    throw ParseError(source + ": " + e.what());
+  }
+}
+
+}  // namespace wbm
