@@ -20,10 +20,11 @@ Matrix3 axis_rotation(const Vector3& u, double angle) {
 }  // namespace
 
 Data::Data(const Model& model)
-    : X_WB(model.num_bodies()), a_W(model.num_bodies(), Vector3::Zero()),
+    : q(Eigen::VectorXd::Zero(model.num_dofs())), X_WB(model.num_bodies()), a_W(model.num_bodies(), Vector3::Zero()),
       mc_W(model.num_bodies(), Vector3::Zero()) {}
 
 void forward_kinematics(const Model& model, Data& data, const Eigen::Ref<const Eigen::VectorXd>& q) {
+  data.q = q;
   const std::vector<Body>& bodies = model.bodies();
   const int nb = static_cast<int>(bodies.size());
   for (int b = 0; b < nb; ++b) {

@@ -16,6 +16,7 @@ struct Data {
   /// @post every buffer is sized for `model`; nothing is allocated afterwards.
   explicit Data(const Model& model);
 
+  Eigen::VectorXd q;              ///< Configuration of the last forward_kinematics().
   std::vector<Transform> X_WB;   ///< Pose of every body in the world.
   std::vector<Vector3> a_W;      ///< Joint axis of every body, in the world (unit).
   std::vector<Vector3> mc_W;     ///< Subtree sum of mass * com position, world [kg m].

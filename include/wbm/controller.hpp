@@ -1,0 +1,101 @@
+#pragma once
+/// @file
+/// The controller cycle: command -> trajectory filters -> tasks -> solver -> limits -> state.
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "wbm/kinematics.hpp"
+#include "wbm/nullspace_criterion.hpp"
+#include "wbm/solver.hpp"
+#include "wbm/task_stack.hpp"
+#include "wbm/trajectory_filter.hpp"
+
+namespace wbm {
+
+/// What the user commands each cycle; any part may change at any cycle.
+/// Make one with Controller::make_command() (sized for the controller).
+struct Command {
+  Eigen::VectorXd targets;  ///< Targets of all elements (TaskStack::num_targets()), reference frames of the elements.
+  Mask task_active;         ///< b_J: one flag per task row (TaskStack::num_rows()).
+  Mask free_dofs;           ///< b_C: one flag per dof; false freezes the dof.
+  /// x_bal of eqs. (19)-(21): task velocity caused by the balance controller, one entry per
+  /// task row (zero when no balance controller runs).
+  Eigen::VectorXd balance_velocity;
+};
+
+/// Flags of a controller cycle beyond the solver's (SolverFlag).
+enum ControllerFlag : std::uint32_t {
+  kInvalidCommand = 1u << 16,  ///< Wrong sizes or dt: nothing moved, state kept.
+  kInvalidTarget = 1u << 17,   ///< NaN/inf or zero-direction target: that element keeps its previous target.
+};
+
+struct ControllerStatus {
+  std::uint32_t flags = 0;
+  bool has(std::uint32_t f) const { return (flags & f) != 0; }
+  /// True unless nothing could be computed this cycle.
+  bool ok() const { return !has(kInvalidCommand) && !has(kInvalidInput); }
+};
+
+/// One controller: owns the workspace, the task stack, the filters and the solver state.
+/// Usable as a real-time loop (update() allocates nothing and never throws) and as a
+/// motion simulator (section VIII).
+///
+/// Setup: add elements with add_task(), optionally set_criterion(), then reset(q).
+class Controller {
+ public:
+  /// @param model must outlive the controller.
+  explicit Controller(const Model& model, const SolverParameters& solver = {});
+
+  /// Adds a task element with its trajectory filter (setup time). Returns its index.
+  /// @throws ConfigError on duplicate names or bad filter parameters.
+  int add_task(std::unique_ptr<TaskElement> element, const FilterParameters& filter = {});
+  /// Null-space criterion H (default: cubic joint-limit penalty, band 0.3).
+  void set_criterion(std::unique_ptr<NullSpaceCriterion> criterion);
+  /// @throws ConfigError for invalid parameters.
+  void set_solver_parameters(const SolverParameters& parameters);
+  /// Sets the state to q (at rest), all filters to the current values.
+  /// @throws ModelError if q has the wrong size, a NaN, or lies outside the limits.
+  void reset(const Eigen::VectorXd& q);
+  /// A command sized for this controller: current values as targets, all rows active,
+  /// all dofs free, no balance velocity.
+  Command make_command() const;
+
+  /// One cycle of duration dt [s]. Never allocates, never throws, never writes NaN.
+  ControllerStatus update(const Command& command, double dt);
+
+  const Model& model() const { return model_; }
+  const Data& data() const { return data_; }
+  TaskStack& tasks() { return stack_; }
+  const TaskStack& tasks() const { return stack_; }
+  /// @pre reset() was called.
+  const WholeBodySolver& solver() const { return *solver_; }
+  const Eigen::VectorXd& q() const { return q_; }
+  const Eigen::VectorXd& qdot() const { return qdot_; }
+  /// Current values of all elements (num_targets), updated after each cycle.
+  const Eigen::VectorXd& values() const { return values_; }
+  /// Filtered targets fed to the tasks in the last cycle (num_targets).
+  const Eigen::VectorXd& filtered_targets() const { return stack_.targets(); }
+  /// Null-space cost H(q) of the current state.
+  double nullspace_cost() const { return criterion_->cost(q_); }
+  const TrajectoryFilter& filter(int element) const { return filters_.at(element); }
+
+ private:
+  void update_kinematics();
+
+  const Model& model_;
+  Data data_;
+  TaskStack stack_;
+  std::vector<TrajectoryFilter> filters_;
+  std::unique_ptr<NullSpaceCriterion> criterion_;
+  SolverParameters solver_parameters_;
+  std::unique_ptr<WholeBodySolver> solver_;  // sized in reset() for the final task rows
+  Eigen::VectorXd q_, qdot_, q_next_, gradient_, values_, previous_values_, value_rates_;
+  Mask was_active_;
+  Eigen::VectorXd commanded_;  // last valid target per element
+};
+
+}  // namespace wbm

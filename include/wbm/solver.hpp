@@ -1,0 +1,125 @@
+#pragma once
+/// @file
+/// Velocity-level redundancy resolution (section IV): weighted pseudo-inverse (eq. 6),
+/// null-space projection (eq. 7), dof constraints b_C (IV.D), speed and jerk limits and
+/// clamping (IV.E).
+
+#include <cstdint>
+
+#include <Eigen/Core>
+
+#include "wbm/model.hpp"
+#include "wbm/task_stack.hpp"
+
+namespace wbm {
+
+struct SolverParameters {
+  /// Null-space step width alpha of eq. (5) [1/s with the criteria of this library].
+  double nullspace_gain = 0.5;
+  /// sigma_min of J W^-1/2 below which damping starts (task units per normalised dof).
+  double singular_threshold = 0.04;
+  /// Damping lambda at sigma_min = 0 (same units).
+  double max_damping = 0.04;
+  /// The paper's "jerk limit" on the null-space rates (IV.E): the null-space velocity of
+  /// a dof may change by at most this many times its speed limit per second [1/s]; 0 turns
+  /// it off. When exceeded, the whole null-space vector is scaled down (direction kept).
+  double nullspace_rate_change_limit = 20.0;
+  /// Scale velocities so that no dof exceeds its speed limit (IV.E).
+  bool limit_speeds = true;
+};
+
+/// Flags of a solve; several may be set at once.
+enum SolverFlag : std::uint32_t {
+  kSolverOk = 0,
+  kDamped = 1u << 0,                ///< Near-singular: damped least squares was used.
+  kOverdetermined = 1u << 1,        ///< More active rows than free dofs.
+  kTaskSpeedLimited = 1u << 2,      ///< The task part alone broke a speed limit: all of q_dot scaled.
+  kNullSpaceSpeedScaled = 1u << 3,  ///< Null-space part scaled to respect the speed limits.
+  kNullSpaceJerkLimited = 1u << 4,  ///< Null-space part scaled by the jerk limit.
+  kNoActiveRows = 1u << 5,          ///< No task row active: null-space motion only.
+  kAllDofsFrozen = 1u << 6,         ///< Every dof constrained: q_dot = 0.
+  kInvalidInput = 1u << 7,          ///< NaN/inf input or wrong sizes: q_dot = 0, state kept.
+  kJointLimitClamped = 1u << 8,     ///< A joint was clamped at its limit (integrate()).
+};
+
+struct SolverStatus {
+  std::uint32_t flags = kSolverOk;
+  bool has(SolverFlag f) const { return (flags & f) != 0; }
+  /// False only for kInvalidInput (nothing was computed).
+  bool ok() const { return !has(kInvalidInput); }
+};
+
+/// Result of one solve; all vectors have nq entries.
+struct SolverOutput {
+  Eigen::VectorXd qdot;       ///< Total joint velocity [rad/s or m/s].
+  Eigen::VectorXd qdot_task;  ///< J# x_dot part (after scaling).
+  Eigen::VectorXd qdot_null;  ///< -alpha N W^-1 dH/dq part (after scaling).
+  double min_singular_value = 0.0;  ///< Estimate of sigma_min of J W^-1/2.
+  double damping = 0.0;             ///< lambda used.
+  double nullspace_scale = 1.0;     ///< Factor applied to the null-space part.
+  double task_scale = 1.0;          ///< Factor applied to the task part.
+};
+
+/// Solves eq. (5) with W^-1 = diag(r_i^2) (r_i the work range of dof i: the minimum-norm
+/// solution in range-normalised coordinates q_i / r_i, so that each dof contributes in
+/// proportion to its range, IV.C) and W^-1_ii = 0 for frozen dofs.
+///
+/// Frozen dofs (b_C = 0): zeroing W^-1_ii removes the dof from J W^-1 J^T, makes row i of
+/// J# zero and row i of N W^-1 zero, exactly as the paper's zero column plus N diagonal rule
+/// (IV.D); the dof moves exactly zero.
+///
+/// Factorisation: Cholesky of A = J W^-1 J^T (m x m). The smallest eigenvalue of A
+/// (sigma_min^2) is estimated by three steps of inverse iteration warm-started from the
+/// previous cycle. Below the threshold eps the damped form A + lambda^2 E is used with
+/// lambda^2 = lambda_max^2 (1 - sigma_min^2 / eps^2) (singularity-robust inverse, Nakamura
+/// 1986): lambda is continuous in the configuration and J J# = E holds exactly away from
+/// singularities. More rows than free dofs make A singular and take the same path.
+class WholeBodySolver {
+ public:
+  /// @param max_rows the largest number of task rows that will be passed.
+  /// @throws ConfigError for invalid parameters.
+  WholeBodySolver(const Model& model, int max_rows, const SolverParameters& parameters = {});
+
+  const SolverParameters& parameters() const { return parameters_; }
+  /// @throws ConfigError for invalid parameters.
+  void set_parameters(const SolverParameters& parameters);
+
+  /// One solve (eq. 5, or eq. 21 with x_dot already reduced by x_bal). Never allocates,
+  /// never throws. On invalid input (wrong sizes, NaN/inf, dt <= 0) sets kInvalidInput and
+  /// q_dot = 0.
+  /// @param J m x nq Jacobian of the active rows; @param xdot m commanded task velocities;
+  /// @param gradient dH/dq (nq); @param free_dofs b_C (nq); @param dt cycle time [s] (jerk limit).
+  SolverStatus solve(const Eigen::Ref<const Eigen::MatrixXd>& J, const Eigen::Ref<const Eigen::VectorXd>& xdot,
+                     const Eigen::Ref<const Eigen::VectorXd>& gradient, const Mask& free_dofs, double dt);
+  const SolverOutput& output() const { return out_; }
+  /// Forget the previous null-space velocity (jerk limit) and eigenvector estimate.
+  void reset();
+
+  /// Weighted (damped, as in solve) pseudo-inverse J# (nq x m) for analysis and tests.
+  /// Allocates: not for the real-time cycle.
+  Eigen::MatrixXd pseudo_inverse(const Eigen::MatrixXd& J, const Mask& free_dofs);
+
+ private:
+  bool factorize(int m);
+  void solve_in_place(int m, Eigen::Ref<Eigen::VectorXd> b) const;
+  double estimate_min_eigenvalue(int m);
+
+  const Model& model_;
+  SolverParameters parameters_;
+  int max_rows_;
+  Eigen::VectorXd w_;         // W^-1 diagonal with frozen dofs zeroed
+  Eigen::VectorXd range_sq_;  // r_i^2
+  Eigen::MatrixXd JW_;        // J W^-1 (m x n)
+  Eigen::MatrixXd A_, L_;     // J W^-1 J^T and its Cholesky factor
+  Eigen::VectorXd y_, v_, g_, u_;
+  Eigen::VectorXd previous_null_;
+  int previous_rows_ = -1;
+  SolverOutput out_;
+};
+
+/// q_next = q + q_dot dt, clamped to the position limits (IV.E); continuous joints are
+/// not clamped. Sets kJointLimitClamped in the returned flags when a joint was clamped.
+std::uint32_t integrate(const Model& model, const Eigen::Ref<const Eigen::VectorXd>& q,
+                        const Eigen::Ref<const Eigen::VectorXd>& qdot, double dt, Eigen::Ref<Eigen::VectorXd> q_next);
+
+}  // namespace wbm

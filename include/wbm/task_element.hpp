@@ -1,0 +1,84 @@
+#pragma once
+/// @file
+/// The task element interface (section III): a value, Jacobian rows and an error.
+
+#include <string>
+
+#include <Eigen/Core>
+
+#include "wbm/kinematics.hpp"
+#include "wbm/model.hpp"
+
+namespace wbm {
+
+/// How a trajectory filter has to treat an element's target.
+enum class TargetKind {
+  kVector,     ///< Euclidean values (positions, angles, joint values).
+  kDirection,  ///< A unit vector moved along great circles (2-dof axis tasks).
+};
+
+/// One task element: a few rows of the task vector x (eq. 4).
+///
+/// Targets and their rates are given in the element's reference frame (the world, or a
+/// frame of the model such as "heel"). The element returns its Jacobian rows J, its error
+/// e to the target, and the feed-forward rate r, so that the commanded task velocity is
+/// r + gain * e (closed-loop inverse kinematics; the paper's eq. 5 is the case gain = 0).
+class TaskElement {
+ public:
+  /// @throws ConfigError if the gain is negative or not finite.
+  TaskElement(std::string name, int dim, int target_dim, TargetKind kind);
+  virtual ~TaskElement() = default;
+
+  const std::string& name() const { return name_; }
+  /// Number of rows (scalar task elements).
+  int dim() const { return dim_; }
+  /// Size of the target vector (3 for a 2-dof axis: a direction).
+  int target_dim() const { return target_dim_; }
+  TargetKind target_kind() const { return kind_; }
+  /// Error feedback gain [1/s].
+  double gain() const { return gain_; }
+  /// @throws ConfigError if gain < 0 or not finite.
+  void set_gain(double gain);
+  /// True if the element needs center_of_mass() to have been called.
+  virtual bool needs_center_of_mass() const { return false; }
+
+  /// Current value (target_dim entries) from the last forward kinematics.
+  virtual void value(const Model& model, const Data& data, Eigen::Ref<Eigen::VectorXd> x) = 0;
+
+  /// Jacobian rows J (dim x nq), error e (dim) and feed-forward rate r (dim) for a target
+  /// and its time derivative (target_dim each). Never allocates.
+  virtual void evaluate(const Model& model, const Data& data, const Eigen::Ref<const Eigen::VectorXd>& target,
+                        const Eigen::Ref<const Eigen::VectorXd>& target_rate, Eigen::Ref<Eigen::MatrixXd> J,
+                        Eigen::Ref<Eigen::VectorXd> error, Eigen::Ref<Eigen::VectorXd> rate) = 0;
+
+ private:
+  std::string name_;
+  int dim_;
+  int target_dim_;
+  TargetKind kind_;
+  double gain_ = 10.0;
+};
+
+/// A frame point and the frame its task values are expressed in (world if reference < 0).
+/// Computes the relative position, rotation and Jacobians (eq. 14 and its relative form).
+class RelativeFrame {
+ public:
+  /// @throws ModelError naming an unknown frame. `reference` empty or "world": the world.
+  RelativeFrame(const Model& model, const std::string& frame, const std::string& reference);
+  int frame() const { return frame_; }
+  int reference() const { return reference_; }
+  /// Rotation R_WR of the reference frame (identity for the world).
+  Matrix3 reference_rotation(const Model& model, const Data& data) const;
+  /// Position p_RF and rotation R_RF of the frame in the reference frame.
+  Transform pose(const Model& model, const Data& data) const;
+  /// Jacobian (6 x nq) of the frame relative to the reference, expressed in the reference:
+  /// rows 0-2 d/dt p_RF, rows 3-5 the relative angular velocity.
+  void jacobian(const Model& model, const Data& data, Eigen::Ref<Eigen::MatrixXd> J);
+
+ private:
+  int frame_ = -1;
+  int reference_ = -1;
+  Eigen::MatrixXd J_reference_;  // 6 x nq scratch
+};
+
+}  // namespace wbm

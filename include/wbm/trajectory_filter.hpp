@@ -1,0 +1,56 @@
+#pragma once
+/// @file
+/// Speed-limited higher-order low-pass filter between actual and target values (section III).
+
+#include <Eigen/Core>
+
+#include "wbm/task_element.hpp"
+
+namespace wbm {
+
+struct FilterParameters {
+  /// Corner frequency omega of every stage [1/s].
+  double bandwidth = 5.0;
+  /// Speed limit of the output: [m/s] for positions, [rad/s] for axes and angles. For
+  /// vector targets the limit applies to the Euclidean norm of the velocity.
+  double max_speed = 0.5;
+  /// Filter order n >= 2: a rate-limited first-order stage followed by n-1 first-order
+  /// low-pass stages (n equal real poles: critically damped, no overshoot).
+  int order = 2;
+};
+
+/// The filter: stage 1 moves towards the target at rate omega * distance but never faster
+/// than max_speed; stages 2..n are first-order low-passes of the previous stage. Each stage
+/// approaches its input monotonically, so the output never overshoots; the output speed is
+/// a low-pass of stage 1's speed and so never exceeds max_speed; the output velocity is
+/// continuous even when the target jumps. All stages are discretised exactly
+/// (factor 1 - exp(-omega dt)).
+///
+/// Direction targets (2-dof axes) move the same way along great circles: distances are
+/// angles, max_speed is an angular speed.
+class TrajectoryFilter {
+ public:
+  /// @throws ConfigError for bandwidth <= 0, max_speed <= 0, order < 2 or a bad size.
+  TrajectoryFilter(TargetKind kind, int dim, const FilterParameters& parameters);
+
+  /// Starts from the actual value and velocity, so nothing jumps when an element is
+  /// switched on: the stages are placed on the line x + (n - k) v / omega.
+  void reset(const Eigen::Ref<const Eigen::VectorXd>& value, const Eigen::Ref<const Eigen::VectorXd>& velocity);
+  /// Advances by dt towards `target`. Never allocates.
+  void update(const Eigen::Ref<const Eigen::VectorXd>& target, double dt);
+  /// Filtered value and its time derivative.
+  const Eigen::VectorXd& value() const { return value_; }
+  const Eigen::VectorXd& velocity() const { return velocity_; }
+  const FilterParameters& parameters() const { return parameters_; }
+
+ private:
+  void move_towards(Eigen::Ref<Eigen::VectorXd> x, const Eigen::Ref<const Eigen::VectorXd>& to, double fraction,
+                    double max_step) const;
+
+  TargetKind kind_;
+  FilterParameters parameters_;
+  Eigen::MatrixXd stages_;  // dim x order; the last column is the output
+  Eigen::VectorXd value_, velocity_, previous_;
+};
+
+}  // namespace wbm

@@ -1,0 +1,121 @@
+#include "wbm/controller.hpp"
+
+#include <cmath>
+
+#include "wbm/errors.hpp"
+
+namespace wbm {
+
+Controller::Controller(const Model& model, const SolverParameters& solver)
+    : model_(model), data_(model), stack_(model),
+      criterion_(std::make_unique<CubicJointLimitCriterion>(model, 0.3)), solver_parameters_(solver),
+      q_(model.home()), qdot_(Eigen::VectorXd::Zero(model.num_dofs())), q_next_(model.home()),
+      gradient_(Eigen::VectorXd::Zero(model.num_dofs())) {
+  WholeBodySolver check(model, 0, solver);  // validates the parameters now
+}
+
+int Controller::add_task(std::unique_ptr<TaskElement> element, const FilterParameters& filter) {
+  if (!element) throw ConfigError("controller: null task element");
+  TrajectoryFilter f(element->target_kind(), element->target_dim(), filter);
+  const int index = stack_.add(std::move(element));
+  filters_.push_back(std::move(f));
+  solver_.reset();
+  return index;
+}
+
+void Controller::set_criterion(std::unique_ptr<NullSpaceCriterion> criterion) {
+  if (!criterion) throw ConfigError("controller: null criterion");
+  criterion_ = std::move(criterion);
+}
+
+void Controller::set_solver_parameters(const SolverParameters& parameters) {
+  WholeBodySolver check(model_, 0, parameters);
+  solver_parameters_ = parameters;
+  if (solver_) solver_->set_parameters(parameters);
+}
+
+void Controller::update_kinematics() {
+  forward_kinematics(model_, data_, q_);
+  if (stack_.needs_center_of_mass() || model_.total_mass() > 0.0) center_of_mass(model_, data_);
+  stack_.values(model_, data_, values_);
+}
+
+void Controller::reset(const Eigen::VectorXd& q) {
+  model_.check_configuration(q);
+  solver_ = std::make_unique<WholeBodySolver>(model_, stack_.num_rows(), solver_parameters_);
+  q_ = q;
+  q_next_ = q;
+  qdot_.setZero();
+  values_.setZero(stack_.num_targets());
+  update_kinematics();
+  previous_values_ = values_;
+  value_rates_.setZero(stack_.num_targets());
+  commanded_ = values_;
+  was_active_.setConstant(stack_.num_elements(), false);
+  for (int i = 0; i < stack_.num_elements(); ++i) {
+    const int t0 = stack_.target_offset(i), n = stack_.element(i).target_dim();
+    filters_[i].reset(values_.segment(t0, n), value_rates_.segment(t0, n));
+  }
+  stack_.targets() = values_;
+  stack_.target_rates().setZero();
+}
+
+Command Controller::make_command() const {
+  Command c;
+  c.targets = values_;
+  c.task_active = Mask::Constant(stack_.num_rows(), true);
+  c.free_dofs = Mask::Constant(model_.num_dofs(), true);
+  return c;
+}
+
+ControllerStatus Controller::update(const Command& command, double dt) {
+  ControllerStatus status;
+  const int nt = stack_.num_targets();
+  if (!solver_ || !(std::isfinite(dt) && dt > 0.0) || command.targets.size() != nt ||
+      command.task_active.size() != stack_.num_rows() || command.free_dofs.size() != model_.num_dofs() ||
+      (command.balance_velocity.size() != 0 && command.balance_velocity.size() != stack_.num_rows()) ||
+      !command.balance_velocity.allFinite()) {
+    status.flags |= kInvalidCommand;
+    qdot_.setZero();
+    return status;
+  }
+  stack_.activation() = command.task_active;
+  for (int i = 0; i < stack_.num_elements(); ++i) {
+    const TaskElement& e = stack_.element(i);
+    const int t0 = stack_.target_offset(i), n = e.target_dim();
+    const bool active = stack_.element_active(i);
+    const auto target = command.targets.segment(t0, n);
+    const bool valid = target.allFinite() && (e.target_kind() != TargetKind::kDirection || target.norm() > 1e-9);
+    if (valid) {
+      commanded_.segment(t0, n) = target;
+    } else if (active) {
+      status.flags |= kInvalidTarget;
+    }
+    if (active && !was_active_[i]) filters_[i].reset(values_.segment(t0, n), value_rates_.segment(t0, n));
+    if (active) filters_[i].update(commanded_.segment(t0, n), dt);
+    stack_.targets().segment(t0, n) = filters_[i].value();
+    stack_.target_rates().segment(t0, n) = filters_[i].velocity();
+    was_active_[i] = active;
+  }
+  const int m = stack_.assemble(model_, data_);
+  if (command.balance_velocity.size() != 0) {
+    auto xdot = stack_.task_velocity();
+    for (int k = 0; k < m; ++k) xdot[k] -= command.balance_velocity[stack_.active_row_indices()[k]];
+  }
+  criterion_->gradient(q_, gradient_);
+  const SolverStatus solved = solver_->solve(stack_.jacobian(), stack_.task_velocity(), gradient_, command.free_dofs, dt);
+  status.flags |= solved.flags;
+  if (!solved.ok()) {
+    qdot_.setZero();
+    return status;
+  }
+  status.flags |= integrate(model_, q_, solver_->output().qdot, dt, q_next_);
+  qdot_ = (q_next_ - q_) / dt;
+  q_ = q_next_;
+  previous_values_ = values_;
+  update_kinematics();
+  value_rates_ = (values_ - previous_values_) / dt;
+  return status;
+}
+
+}  // namespace wbm

@@ -1,0 +1,256 @@
+#include "wbm/solver.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "wbm/errors.hpp"
+
+namespace wbm {
+namespace {
+
+void check(const SolverParameters& p) {
+  auto positive = [](double v) { return std::isfinite(v) && v >= 0.0; };
+  if (!positive(p.nullspace_gain)) throw ConfigError("solver: nullspace_gain must be finite and >= 0");
+  if (!(std::isfinite(p.singular_threshold) && p.singular_threshold > 0.0))
+    throw ConfigError("solver: singular_threshold must be finite and > 0");
+  if (!(std::isfinite(p.max_damping) && p.max_damping > 0.0)) throw ConfigError("solver: max_damping must be finite and > 0");
+  if (!positive(p.nullspace_rate_change_limit))
+    throw ConfigError("solver: nullspace_rate_change_limit must be finite and >= 0 (0 = off)");
+}
+
+}  // namespace
+
+WholeBodySolver::WholeBodySolver(const Model& model, int max_rows, const SolverParameters& parameters)
+    : model_(model), parameters_(parameters), max_rows_(max_rows) {
+  check(parameters);
+  if (max_rows < 0) throw ConfigError("solver: max_rows must be >= 0");
+  const int n = model.num_dofs();
+  const int m = std::max(max_rows, 1);
+  w_.setZero(n);
+  range_sq_.resize(n);
+  for (int i = 0; i < n; ++i) range_sq_[i] = model.dof(i).work_range * model.dof(i).work_range;
+  JW_.setZero(m, n);
+  A_.setZero(m, m);
+  L_.setZero(m, m);
+  y_.setZero(m);
+  v_.setZero(m);
+  u_.setZero(m);
+  g_.setZero(n);
+  previous_null_.setZero(n);
+  out_.qdot.setZero(n);
+  out_.qdot_task.setZero(n);
+  out_.qdot_null.setZero(n);
+}
+
+void WholeBodySolver::set_parameters(const SolverParameters& parameters) {
+  check(parameters);
+  parameters_ = parameters;
+}
+
+void WholeBodySolver::reset() {
+  previous_null_.setZero();
+  previous_rows_ = -1;
+}
+
+bool WholeBodySolver::factorize(int m) {
+  // Cholesky A = L L^T, written out so that it works in place on the fixed buffers.
+  double max_diagonal = 0.0;
+  for (int j = 0; j < m; ++j) max_diagonal = std::max(max_diagonal, A_(j, j));
+  const double tiny = 1e-13 * std::max(max_diagonal, 1e-300);
+  for (int j = 0; j < m; ++j) {
+    double d = A_(j, j);
+    for (int k = 0; k < j; ++k) d -= L_(j, k) * L_(j, k);
+    if (!(d > tiny)) return false;
+    const double l = std::sqrt(d);
+    L_(j, j) = l;
+    for (int i = j + 1; i < m; ++i) {
+      double s = A_(i, j);
+      for (int k = 0; k < j; ++k) s -= L_(i, k) * L_(j, k);
+      L_(i, j) = s / l;
+    }
+  }
+  return true;
+}
+
+void WholeBodySolver::solve_in_place(int m, Eigen::Ref<Eigen::VectorXd> b) const {
+  const auto L = L_.topLeftCorner(m, m);
+  L.triangularView<Eigen::Lower>().solveInPlace(b);
+  L.triangularView<Eigen::Lower>().transpose().solveInPlace(b);
+}
+
+double WholeBodySolver::estimate_min_eigenvalue(int m) {
+  if (!factorize(m)) return 0.0;
+  auto v = v_.head(m);
+  if (m != previous_rows_ || !v.allFinite() || v.norm() == 0.0) {
+    for (int i = 0; i < m; ++i) v[i] = 1.0 + 0.37 * i;
+    previous_rows_ = m;
+  }
+  v.normalize();
+  double growth = 0.0;
+  for (int k = 0; k < 3; ++k) {
+    solve_in_place(m, v);
+    growth = v.norm();
+    v /= growth;
+  }
+  // |A^-1 v| <= 1 / lambda_min, with equality for the converged eigenvector.
+  return 1.0 / growth;
+}
+
+SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
+                                    const Eigen::Ref<const Eigen::VectorXd>& xdot,
+                                    const Eigen::Ref<const Eigen::VectorXd>& gradient, const Mask& free_dofs, double dt) {
+  SolverStatus status;
+  const int n = model_.num_dofs();
+  const int m = static_cast<int>(J.rows());
+  out_.qdot.setZero();
+  out_.qdot_task.setZero();
+  out_.qdot_null.setZero();
+  out_.min_singular_value = 0.0;
+  out_.damping = 0.0;
+  out_.nullspace_scale = 1.0;
+  out_.task_scale = 1.0;
+  if (J.cols() != n || xdot.size() != m || gradient.size() != n || free_dofs.size() != n || m > max_rows_ ||
+      !(std::isfinite(dt) && dt > 0.0) || !J.allFinite() || !xdot.allFinite() || !gradient.allFinite()) {
+    status.flags |= kInvalidInput;
+    return status;
+  }
+  int free_count = 0;
+  for (int i = 0; i < n; ++i) {
+    w_[i] = free_dofs[i] ? range_sq_[i] : 0.0;
+    free_count += free_dofs[i] ? 1 : 0;
+  }
+  if (free_count == 0) {
+    status.flags |= kAllDofsFrozen;
+    previous_null_.setZero();
+    return status;
+  }
+  if (m > free_count) status.flags |= kOverdetermined;
+
+  g_ = w_.cwiseProduct(gradient);
+  if (m == 0) {
+    status.flags |= kNoActiveRows;
+    out_.qdot_null = -parameters_.nullspace_gain * g_;
+    out_.min_singular_value = std::numeric_limits<double>::infinity();
+  } else {
+    auto JW = JW_.topRows(m);
+    JW.noalias() = J * w_.asDiagonal();
+    auto A = A_.topLeftCorner(m, m);
+    A.noalias() = JW * J.transpose();
+    const double lambda_min = estimate_min_eigenvalue(m);
+    out_.min_singular_value = std::sqrt(std::max(lambda_min, 0.0));
+    const double eps2 = parameters_.singular_threshold * parameters_.singular_threshold;
+    if (lambda_min < eps2) {
+      status.flags |= kDamped;
+      const double max2 = parameters_.max_damping * parameters_.max_damping;
+      double damping2 = max2 * (1.0 - std::max(lambda_min, 0.0) / eps2);
+      A.diagonal().array() += damping2;
+      if (!factorize(m)) {
+        A.diagonal().array() += max2 - damping2;
+        damping2 = max2;
+        factorize(m);
+      }
+      out_.damping = std::sqrt(damping2);
+    }
+    auto y = y_.head(m);
+    y = xdot;
+    solve_in_place(m, y);
+    out_.qdot_task.noalias() = JW.transpose() * y;
+    auto u = u_.head(m);
+    u.noalias() = J * g_;
+    solve_in_place(m, u);
+    out_.qdot_null = g_;
+    out_.qdot_null.noalias() -= JW.transpose() * u;
+    out_.qdot_null *= -parameters_.nullspace_gain;
+  }
+
+  const Eigen::VectorXd& vmax = model_.max_speeds();
+  if (parameters_.limit_speeds) {
+    double task_scale = 1.0;
+    for (int i = 0; i < n; ++i) {
+      const double v = std::abs(out_.qdot_task[i]);
+      if (v > vmax[i]) task_scale = std::min(task_scale, vmax[i] / v);
+    }
+    if (task_scale < 1.0) {
+      status.flags |= kTaskSpeedLimited;
+      out_.qdot_task *= task_scale;
+      out_.task_scale = task_scale;
+      out_.nullspace_scale = 0.0;
+    } else {
+      // Largest s in [0, 1] with |qdot_task + s qdot_null| <= vmax for every dof.
+      double s = 1.0;
+      for (int i = 0; i < n; ++i) {
+        const double qn = out_.qdot_null[i];
+        if (qn == 0.0) continue;
+        const double bound = (std::copysign(vmax[i], qn) - out_.qdot_task[i]) / qn;
+        s = std::min(s, std::max(bound, 0.0));
+      }
+      if (s < 1.0) status.flags |= kNullSpaceSpeedScaled;
+      out_.nullspace_scale = s;
+    }
+  }
+  if (parameters_.nullspace_rate_change_limit > 0.0 && out_.nullspace_scale > 0.0) {
+    // Jerk limit: the largest s' <= s with |s' qdot_null - previous| <= k vmax dt for all dofs.
+    double lo = 0.0, hi = out_.nullspace_scale;
+    double num = 0.0, den = 0.0;
+    for (int i = 0; i < n; ++i) {
+      const double qn = out_.qdot_null[i];
+      const double step = parameters_.nullspace_rate_change_limit * vmax[i] * dt;
+      const double prev = previous_null_[i];
+      if (qn == 0.0) continue;
+      double a = (prev - step) / qn, b = (prev + step) / qn;
+      if (a > b) std::swap(a, b);
+      lo = std::max(lo, a);
+      hi = std::min(hi, b);
+      num += qn * prev / (step * step);
+      den += qn * qn / (step * step);
+    }
+    double s = hi;
+    if (lo > hi) s = std::clamp(den > 0.0 ? num / den : 0.0, 0.0, out_.nullspace_scale);  // closest feasible
+    if (s < out_.nullspace_scale) {
+      status.flags |= kNullSpaceJerkLimited;
+      out_.nullspace_scale = s;
+    }
+  }
+  out_.qdot_null *= out_.nullspace_scale;
+  out_.qdot = out_.qdot_task + out_.qdot_null;
+  if (!out_.qdot.allFinite()) {
+    out_.qdot.setZero();
+    out_.qdot_task.setZero();
+    out_.qdot_null.setZero();
+    status.flags |= kInvalidInput;
+  }
+  previous_null_ = out_.qdot_null;
+  return status;
+}
+
+Eigen::MatrixXd WholeBodySolver::pseudo_inverse(const Eigen::MatrixXd& J, const Mask& free_dofs) {
+  const int m = static_cast<int>(J.rows());
+  const int n = model_.num_dofs();
+  Eigen::MatrixXd result = Eigen::MatrixXd::Zero(n, m);
+  for (int k = 0; k < m; ++k) {
+    const Eigen::VectorXd e = Eigen::VectorXd::Unit(m, k);
+    SolverParameters p = parameters_;
+    SolverParameters saved = parameters_;
+    p.limit_speeds = false;
+    p.nullspace_rate_change_limit = 0.0;
+    parameters_ = p;
+    solve(J, e, Eigen::VectorXd::Zero(n), free_dofs, 1.0);
+    parameters_ = saved;
+    result.col(k) = out_.qdot_task;
+  }
+  return result;
+}
+
+std::uint32_t integrate(const Model& model, const Eigen::Ref<const Eigen::VectorXd>& q,
+                        const Eigen::Ref<const Eigen::VectorXd>& qdot, double dt, Eigen::Ref<Eigen::VectorXd> q_next) {
+  std::uint32_t flags = kSolverOk;
+  for (int i = 0; i < q.size(); ++i) {
+    const double x = q[i] + qdot[i] * dt;
+    const double clamped = std::clamp(x, model.lower_limits()[i], model.upper_limits()[i]);
+    if (clamped != x) flags |= kJointLimitClamped;
+    q_next[i] = clamped;
+  }
+  return flags;
+}
+
+}  // namespace wbm

@@ -1,0 +1,80 @@
+#include "wbm/task_stack.hpp"
+
+#include "wbm/errors.hpp"
+
+namespace wbm {
+
+TaskStack::TaskStack(const Model& model) : nq_(model.num_dofs()) {}
+
+int TaskStack::add(std::unique_ptr<TaskElement> element) {
+  if (!element) throw ConfigError("task stack: null task element");
+  for (const auto& e : elements_)
+    if (e->name() == element->name()) throw ConfigError("task stack: duplicate task element '" + element->name() + "'");
+  const int rows = num_rows() + element->dim();
+  const int targets = num_targets() + element->target_dim();
+  row_offset_.push_back(num_rows());
+  target_offset_.push_back(num_targets());
+  activation_.conservativeResize(rows);
+  activation_.tail(element->dim()).setConstant(true);
+  targets_.conservativeResize(targets);
+  rates_.conservativeResize(targets);
+  targets_.tail(element->target_dim()).setZero();
+  if (element->target_kind() == TargetKind::kDirection) targets_[targets - 1] = 1.0;
+  rates_.tail(element->target_dim()).setZero();
+  J_full_.setZero(rows, nq_);
+  J_.setZero(rows, nq_);
+  errors_.setZero(rows);
+  feed_forward_.setZero(rows);
+  xdot_.setZero(rows);
+  active_index_.assign(rows, 0);
+  elements_.push_back(std::move(element));
+  return num_elements() - 1;
+}
+
+int TaskStack::element_index(const std::string& name) const {
+  for (int i = 0; i < num_elements(); ++i)
+    if (elements_[i]->name() == name) return i;
+  throw ConfigError("task stack: no task element named '" + name + "'");
+}
+
+void TaskStack::set_element_active(int element, bool active) {
+  activation_.segment(row_offset_.at(element), elements_.at(element)->dim()).setConstant(active);
+}
+
+bool TaskStack::element_active(int element) const {
+  return activation_.segment(row_offset_.at(element), elements_.at(element)->dim()).any();
+}
+
+bool TaskStack::needs_center_of_mass() const {
+  for (const auto& e : elements_)
+    if (e->needs_center_of_mass()) return true;
+  return false;
+}
+
+void TaskStack::values(const Model& model, const Data& data, Eigen::Ref<Eigen::VectorXd> x) {
+  for (int i = 0; i < num_elements(); ++i)
+    elements_[i]->value(model, data, x.segment(target_offset_[i], elements_[i]->target_dim()));
+}
+
+int TaskStack::assemble(const Model& model, const Data& data) {
+  active_rows_ = 0;
+  errors_.setZero();
+  for (int i = 0; i < num_elements(); ++i) {
+    TaskElement& e = *elements_[i];
+    const int r0 = row_offset_[i];
+    if (!activation_.segment(r0, e.dim()).any()) continue;
+    const int t0 = target_offset_[i];
+    e.evaluate(model, data, targets_.segment(t0, e.target_dim()), rates_.segment(t0, e.target_dim()),
+               J_full_.middleRows(r0, e.dim()), errors_.segment(r0, e.dim()), feed_forward_.segment(r0, e.dim()));
+    for (int r = r0; r < r0 + e.dim(); ++r) {
+      if (!activation_[r]) continue;
+      J_.row(active_rows_) = J_full_.row(r);
+      xdot_[active_rows_] = feed_forward_[r] + e.gain() * errors_[r];
+      active_index_[active_rows_] = r;
+      ++active_rows_;
+    }
+  }
+  return active_rows_;
+}
+
+}  // namespace wbm

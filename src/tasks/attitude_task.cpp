@@ -1,0 +1,52 @@
+#include "wbm/tasks/attitude_task.hpp"
+
+#include <cmath>
+
+namespace wbm {
+namespace {
+
+double wrap(double angle) { return std::remainder(angle, 2.0 * M_PI); }
+
+}  // namespace
+
+AttitudeTask::AttitudeTask(const Model& model, std::string name, const std::string& frame, const std::string& reference)
+    : TaskElement(std::move(name), 3, 3, TargetKind::kVector), frame_(model, frame, reference),
+      J6_(6, model.num_dofs()) {}
+
+Vector3 AttitudeTask::kardan_angles(const Matrix3& R) {
+  // R = Rx(a) Ry(b) Rz(c): R(0,2) = sin b, R(1,2) = -sin a cos b, R(2,2) = cos a cos b,
+  // R(0,1) = -cos b sin c, R(0,0) = cos b cos c.
+  const double b = std::atan2(R(0, 2), std::hypot(R(1, 2), R(2, 2)));
+  const double a = std::atan2(-R(1, 2), R(2, 2));
+  const double c = std::atan2(-R(0, 1), R(0, 0));
+  return {a, b, c};
+}
+
+Matrix3 AttitudeTask::kardan_rotation(const Vector3& angles) {
+  return (Eigen::AngleAxisd(angles.x(), Vector3::UnitX()) * Eigen::AngleAxisd(angles.y(), Vector3::UnitY()) *
+          Eigen::AngleAxisd(angles.z(), Vector3::UnitZ()))
+      .toRotationMatrix();
+}
+
+void AttitudeTask::value(const Model& model, const Data& data, Eigen::Ref<Eigen::VectorXd> x) {
+  x = kardan_angles(frame_.pose(model, data).R);
+}
+
+void AttitudeTask::evaluate(const Model& model, const Data& data, const Eigen::Ref<const Eigen::VectorXd>& target,
+                            const Eigen::Ref<const Eigen::VectorXd>& target_rate, Eigen::Ref<Eigen::MatrixXd> J,
+                            Eigen::Ref<Eigen::VectorXd> error, Eigen::Ref<Eigen::VectorXd> rate) {
+  const Vector3 angles = kardan_angles(frame_.pose(model, data).R);
+  const double sa = std::sin(angles.x()), ca = std::cos(angles.x());
+  const double sb = std::sin(angles.y());
+  double cb = std::cos(angles.y());
+  if (std::abs(cb) < 1e-3) cb = std::copysign(1e-3, cb);
+  // Inverse of E = [[1, 0, sb], [0, ca, -sa cb], [0, sa, ca cb]].
+  Matrix3 E_inv;
+  E_inv << 1.0, sa * sb / cb, -ca * sb / cb, 0.0, ca, sa, 0.0, -sa / cb, ca / cb;
+  frame_.jacobian(model, data, J6_);
+  J.noalias() = E_inv * J6_.bottomRows<3>();
+  for (int i = 0; i < 3; ++i) error[i] = wrap(target[i] - angles[i]);
+  rate = target_rate;
+}
+
+}  // namespace wbm

@@ -1,0 +1,43 @@
+#include "wbm/tasks/com_task.hpp"
+
+#include "wbm/errors.hpp"
+
+namespace wbm {
+
+CenterOfMassTask::CenterOfMassTask(const Model& model, std::string name, const std::string& reference)
+    : TaskElement(std::move(name), 3, 3, TargetKind::kVector),
+      reference_(reference.empty() || reference == "world" ? -1 : model.frame_index(reference)),
+      J6_(6, model.num_dofs()) {
+  if (!(model.total_mass() > 0.0)) throw ModelError("centre-of-mass task '" + this->name() + "': the model has no mass");
+}
+
+void CenterOfMassTask::value(const Model& model, const Data& data, Eigen::Ref<Eigen::VectorXd> x) {
+  if (reference_ < 0) {
+    x = data.p_WCm;
+    return;
+  }
+  const Transform X_WR = frame_pose(model, data, reference_);
+  x = X_WR.R.transpose() * (data.p_WCm - X_WR.p);
+}
+
+void CenterOfMassTask::evaluate(const Model& model, const Data& data, const Eigen::Ref<const Eigen::VectorXd>& target,
+                                const Eigen::Ref<const Eigen::VectorXd>& target_rate, Eigen::Ref<Eigen::MatrixXd> J,
+                                Eigen::Ref<Eigen::VectorXd> error, Eigen::Ref<Eigen::VectorXd> rate) {
+  com_jacobian(model, data, J);
+  Vector3 x;
+  if (reference_ >= 0) {
+    frame_jacobian(model, data, reference_, J6_);
+    const Transform X_WR = frame_pose(model, data, reference_);
+    const Vector3 d = data.p_WCm - X_WR.p;
+    const Matrix3 Rt = X_WR.R.transpose();
+    for (int c = 0; c < J.cols(); ++c)
+      J.col(c) = Rt * (J.col(c) - J6_.col(c).head<3>() + d.cross(J6_.col(c).tail<3>()));
+    x = Rt * d;
+  } else {
+    x = data.p_WCm;
+  }
+  error = target - x;
+  rate = target_rate;
+}
+
+}  // namespace wbm

@@ -1,0 +1,28 @@
+#include "wbm/tasks/joint_task.hpp"
+
+#include "wbm/errors.hpp"
+
+namespace wbm {
+
+JointTask::JointTask(const Model& model, std::string name, const std::vector<std::string>& dofs)
+    : TaskElement(std::move(name), static_cast<int>(dofs.size()), static_cast<int>(dofs.size()), TargetKind::kVector) {
+  if (dofs.empty()) throw ConfigError("joint task '" + this->name() + "': no dofs listed");
+  for (const std::string& d : dofs) dofs_.push_back(model.dof_index(d));
+}
+
+void JointTask::value(const Model&, const Data& data, Eigen::Ref<Eigen::VectorXd> x) {
+  for (size_t i = 0; i < dofs_.size(); ++i) x[i] = data.q[dofs_[i]];
+}
+
+void JointTask::evaluate(const Model&, const Data& data, const Eigen::Ref<const Eigen::VectorXd>& target,
+                         const Eigen::Ref<const Eigen::VectorXd>& target_rate, Eigen::Ref<Eigen::MatrixXd> J,
+                         Eigen::Ref<Eigen::VectorXd> error, Eigen::Ref<Eigen::VectorXd> rate) {
+  J.setZero();
+  for (size_t i = 0; i < dofs_.size(); ++i) {
+    J(i, dofs_[i]) = 1.0;
+    error[i] = target[i] - data.q[dofs_[i]];
+  }
+  rate = target_rate;
+}
+
+}  // namespace wbm

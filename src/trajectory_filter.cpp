@@ -1,0 +1,86 @@
+#include "wbm/trajectory_filter.hpp"
+
+#include <cmath>
+
+#include "wbm/errors.hpp"
+
+namespace wbm {
+
+TrajectoryFilter::TrajectoryFilter(TargetKind kind, int dim, const FilterParameters& parameters)
+    : kind_(kind), parameters_(parameters) {
+  if (!(std::isfinite(parameters.bandwidth) && parameters.bandwidth > 0.0))
+    throw ConfigError("trajectory filter: bandwidth must be finite and > 0 [1/s]");
+  if (!(std::isfinite(parameters.max_speed) && parameters.max_speed > 0.0))
+    throw ConfigError("trajectory filter: max_speed must be finite and > 0");
+  if (parameters.order < 2 || parameters.order > 6) throw ConfigError("trajectory filter: order must be in [2, 6]");
+  if (dim <= 0 || (kind == TargetKind::kDirection && dim != 3))
+    throw ConfigError("trajectory filter: direction filters have 3 entries, others at least 1");
+  stages_.setZero(dim, parameters.order);
+  value_.setZero(dim);
+  velocity_.setZero(dim);
+  previous_.setZero(dim);
+  if (kind == TargetKind::kDirection) {
+    stages_.row(2).setOnes();
+    value_[2] = 1.0;
+  }
+}
+
+void TrajectoryFilter::reset(const Eigen::Ref<const Eigen::VectorXd>& value,
+                             const Eigen::Ref<const Eigen::VectorXd>& velocity) {
+  const int n = parameters_.order;
+  const double w = parameters_.bandwidth;
+  if (kind_ == TargetKind::kVector) {
+    for (int k = 0; k < n; ++k) stages_.col(k) = value + (n - 1 - k) * velocity / w;
+  } else {
+    // Rotate the unit value about the axis value x velocity by (n - 1 - k) |velocity| / omega.
+    const Vector3 a = value.head<3>().normalized();
+    const Vector3 omega = a.cross(Vector3(velocity.head<3>()));
+    for (int k = 0; k < n; ++k) {
+      const Vector3 rv = omega * ((n - 1 - k) / w);
+      const double angle = rv.norm();
+      stages_.col(k) = angle > 1e-12 ? Vector3(Eigen::AngleAxisd(angle, rv / angle) * a) : a;
+    }
+  }
+  value_ = stages_.col(n - 1);
+  velocity_ = velocity;
+}
+
+void TrajectoryFilter::move_towards(Eigen::Ref<Eigen::VectorXd> x, const Eigen::Ref<const Eigen::VectorXd>& to,
+                                    double fraction, double max_step) const {
+  if (kind_ == TargetKind::kVector) {
+    const double distance = (to - x).norm();
+    if (distance <= 0.0) return;
+    const double step = std::min(distance * fraction, max_step);
+    x += (to - x) * (step / distance);
+    return;
+  }
+  // Great circle: rotate x towards `to` by the step angle.
+  const Vector3 a = x.head<3>();
+  const Vector3 b = to.head<3>().normalized();
+  const Vector3 axis = a.cross(b);
+  const double s = axis.norm();
+  const double angle = std::atan2(s, a.dot(b));
+  if (angle <= 0.0) return;
+  const double step = std::min(angle * fraction, max_step);
+  if (s < 1e-12) {
+    // Opposite directions: any great circle is shortest; turn about a fixed perpendicular.
+    const Vector3 p = std::abs(a.x()) < 0.9 ? a.cross(Vector3::UnitX()).normalized() : a.cross(Vector3::UnitY()).normalized();
+    x = Eigen::AngleAxisd(step, p) * a;
+    return;
+  }
+  x = Eigen::AngleAxisd(step, axis / s) * a;
+  x.head<3>().normalize();
+}
+
+void TrajectoryFilter::update(const Eigen::Ref<const Eigen::VectorXd>& target, double dt) {
+  const int n = parameters_.order;
+  const double fraction = 1.0 - std::exp(-parameters_.bandwidth * dt);
+  const double infinite = std::numeric_limits<double>::infinity();
+  previous_ = stages_.col(n - 1);
+  move_towards(stages_.col(0), target, fraction, parameters_.max_speed * dt);
+  for (int k = 1; k < n; ++k) move_towards(stages_.col(k), stages_.col(k - 1), fraction, infinite);
+  value_ = stages_.col(n - 1);
+  velocity_ = (value_ - previous_) / dt;
+}
+
+}  // namespace wbm
