@@ -8,6 +8,8 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include "runner.hpp"
+#include "scenario.hpp"
 #include "wbm/errors.hpp"
 #include "wbm/kinematics.hpp"
 #include "wbm/paper_model.hpp"
@@ -159,6 +161,26 @@ int model_export(ModelSource& source, const std::string& output) {
   return 0;
 }
 
+int run_scenarios(const std::vector<std::string>& files, const std::string& out, bool no_report) {
+  // Parse every file first, so that a bad file stops the run before anything is written.
+  std::vector<wbm::Scenario> scenarios;
+  for (const std::string& f : files) scenarios.push_back(wbm::load_scenario(f));
+  for (const wbm::Scenario& s : scenarios) {
+    const std::string dir = files.size() == 1 ? out : out + "/" + s.name;
+    std::cerr << "scenario " << s.name << " (" << s.duration << " s at dt = " << s.dt * 1e3 << " ms)\n";
+    wbm::RunOptions options;
+    options.progress = true;
+    const auto run = wbm::run_scenario(s, options);
+    wbm::write_outputs(*run, dir, !no_report);
+    const json summary = wbm::summarize(*run);
+    for (const auto& [name, e] : summary["elements"].items())
+      std::cerr << "  " << name << ": final error " << e["final_error"].get<double>() << " " << e["unit"].get<std::string>()
+                << "\n";
+    std::cerr << "  wrote " << dir << "/{trajectory.csv,summary.json" << (no_report ? "" : ",report.html") << "}\n";
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -191,11 +213,20 @@ int main(int argc, char** argv) {
   export_source.add_to(*exp);
   exp->add_option("-o,--output", export_out, "output file (default: standard output)");
 
+  std::vector<std::string> run_files;
+  std::string run_out = "out";
+  bool run_no_report = false;
+  CLI::App* run = app.add_subcommand("run", "simulate scenario files; write trajectory.csv, summary.json, report.html");
+  run->add_option("scenarios", run_files, "scenario YAML files")->required()->check(CLI::ExistingFile);
+  run->add_option("--out", run_out, "output directory (one subdirectory per scenario when several are given)");
+  run->add_flag("--no-report", run_no_report, "skip report.html");
+
   CLI11_PARSE(app, argc, argv);
   try {
     if (info->parsed()) return model_info(info_source, info_json);
     if (fk->parsed()) return model_fk(fk_source, q_text, fk_frames, fk_jacobian);
     if (exp->parsed()) return model_export(export_source, export_out);
+    if (run->parsed()) return run_scenarios(run_files, run_out, run_no_report);
   } catch (const wbm::Error& e) {
     std::cerr << "wbm: error: " << e.what() << "\n";
     return 1;

@@ -36,7 +36,7 @@ void Controller::set_solver_parameters(const SolverParameters& parameters) {
 
 void Controller::update_kinematics() {
   forward_kinematics(model_, data_, q_);
-  if (stack_.needs_center_of_mass() || model_.total_mass() > 0.0) center_of_mass(model_, data_);
+  if (model_.total_mass() > 0.0) center_of_mass(model_, data_);
   stack_.values(model_, data_, values_);
 }
 
@@ -45,6 +45,7 @@ void Controller::reset(const Eigen::VectorXd& q) {
   solver_ = std::make_unique<WholeBodySolver>(model_, stack_.num_rows(), solver_parameters_);
   q_ = q;
   q_next_ = q;
+  q_total_.setZero(model_.num_dofs());
   qdot_.setZero();
   values_.setZero(stack_.num_targets());
   update_kinematics();
@@ -52,6 +53,8 @@ void Controller::reset(const Eigen::VectorXd& q) {
   value_rates_.setZero(stack_.num_targets());
   commanded_ = values_;
   was_active_.setConstant(stack_.num_elements(), false);
+  free_.setConstant(model_.num_dofs(), true);
+  was_row_active_.setConstant(stack_.num_rows(), false);
   for (int i = 0; i < stack_.num_elements(); ++i) {
     const int t0 = stack_.target_offset(i), n = stack_.element(i).target_dim();
     filters_[i].reset(values_.segment(t0, n), value_rates_.segment(t0, n));
@@ -73,8 +76,8 @@ ControllerStatus Controller::update(const Command& command, double dt) {
   const int nt = stack_.num_targets();
   if (!solver_ || !(std::isfinite(dt) && dt > 0.0) || command.targets.size() != nt ||
       command.task_active.size() != stack_.num_rows() || command.free_dofs.size() != model_.num_dofs() ||
-      (command.balance_velocity.size() != 0 && command.balance_velocity.size() != stack_.num_rows()) ||
-      !command.balance_velocity.allFinite()) {
+      (command.external_velocity.size() != 0 && command.external_velocity.size() != model_.num_dofs()) ||
+      !command.external_velocity.allFinite()) {
     status.flags |= kInvalidCommand;
     qdot_.setZero();
     return status;
@@ -91,25 +94,56 @@ ControllerStatus Controller::update(const Command& command, double dt) {
     } else if (active) {
       status.flags |= kInvalidTarget;
     }
-    if (active && !was_active_[i]) filters_[i].reset(values_.segment(t0, n), value_rates_.segment(t0, n));
+    const int r0 = stack_.row_offset(i);
+    if (active && !was_active_[i]) {
+      filters_[i].reset(values_.segment(t0, n), value_rates_.segment(t0, n));
+    } else if (active) {
+      // Rows switched on in an element that was already partly active.
+      for (int r = 0; r < e.dim(); ++r) {
+        if (!stack_.activation()[r0 + r] || was_row_active_[r0 + r]) continue;
+        if (e.target_kind() == TargetKind::kVector && e.dim() == n)
+          filters_[i].reset_component(r, values_[t0 + r], value_rates_[t0 + r]);
+        else
+          filters_[i].reset(values_.segment(t0, n), value_rates_.segment(t0, n));
+      }
+    }
     if (active) filters_[i].update(commanded_.segment(t0, n), dt);
     stack_.targets().segment(t0, n) = filters_[i].value();
     stack_.target_rates().segment(t0, n) = filters_[i].velocity();
     was_active_[i] = active;
   }
+  was_row_active_ = stack_.activation();
   const int m = stack_.assemble(model_, data_);
-  if (command.balance_velocity.size() != 0) {
-    auto xdot = stack_.task_velocity();
-    for (int k = 0; k < m; ++k) xdot[k] -= command.balance_velocity[stack_.active_row_indices()[k]];
-  }
+  const bool external = command.external_velocity.size() != 0;
+  if (external && command.compensate_external && m > 0)
+    stack_.task_velocity().noalias() -= stack_.jacobian() * command.external_velocity;
   criterion_->gradient(q_, gradient_);
-  const SolverStatus solved = solver_->solve(stack_.jacobian(), stack_.task_velocity(), gradient_, command.free_dofs, dt);
+  free_ = command.free_dofs;
+  SolverStatus solved;
+  for (int attempt = 0; attempt < 4; ++attempt) {
+    solved = solver_->solve(stack_.jacobian(), stack_.task_velocity(), gradient_, free_, dt);
+    if (!solved.ok() || attempt == 3) break;
+    bool changed = false;
+    const Eigen::VectorXd& v = solver_->output().qdot;
+    for (int i = 0; i < model_.num_dofs(); ++i) {
+      const bool at_lower = q_[i] <= model_.lower_limits()[i] && v[i] < 0.0;
+      const bool at_upper = q_[i] >= model_.upper_limits()[i] && v[i] > 0.0;
+      if (free_[i] && (at_lower || at_upper)) {
+        free_[i] = false;
+        changed = true;
+      }
+    }
+    if (!changed) break;
+    status.flags |= kDofAtLimitFrozen;
+  }
   status.flags |= solved.flags;
   if (!solved.ok()) {
     qdot_.setZero();
     return status;
   }
-  status.flags |= integrate(model_, q_, solver_->output().qdot, dt, q_next_);
+  q_total_ = solver_->output().qdot;
+  if (external) q_total_ += command.external_velocity;
+  status.flags |= integrate(model_, q_, q_total_, dt, q_next_);
   qdot_ = (q_next_ - q_) / dt;
   q_ = q_next_;
   previous_values_ = values_;

@@ -45,12 +45,6 @@ bool TaskStack::element_active(int element) const {
   return activation_.segment(row_offset_.at(element), elements_.at(element)->dim()).any();
 }
 
-bool TaskStack::needs_center_of_mass() const {
-  for (const auto& e : elements_)
-    if (e->needs_center_of_mass()) return true;
-  return false;
-}
-
 void TaskStack::values(const Model& model, const Data& data, Eigen::Ref<Eigen::VectorXd> x) {
   for (int i = 0; i < num_elements(); ++i)
     elements_[i]->value(model, data, x.segment(target_offset_[i], elements_[i]->target_dim()));

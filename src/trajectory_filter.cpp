@@ -45,6 +45,13 @@ void TrajectoryFilter::reset(const Eigen::Ref<const Eigen::VectorXd>& value,
   velocity_ = velocity;
 }
 
+void TrajectoryFilter::reset_component(int i, double value, double velocity) {
+  const int n = parameters_.order;
+  for (int k = 0; k < n; ++k) stages_(i, k) = value + (n - 1 - k) * velocity / parameters_.bandwidth;
+  value_[i] = value;
+  velocity_[i] = velocity;
+}
+
 void TrajectoryFilter::move_towards(Eigen::Ref<Eigen::VectorXd> x, const Eigen::Ref<const Eigen::VectorXd>& to,
                                     double fraction, double max_step) const {
   if (kind_ == TargetKind::kVector) {

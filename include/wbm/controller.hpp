@@ -22,9 +22,13 @@ struct Command {
   Eigen::VectorXd targets;  ///< Targets of all elements (TaskStack::num_targets()), reference frames of the elements.
   Mask task_active;         ///< b_J: one flag per task row (TaskStack::num_rows()).
   Mask free_dofs;           ///< b_C: one flag per dof; false freezes the dof.
-  /// x_bal of eqs. (19)-(21): task velocity caused by the balance controller, one entry per
-  /// task row (zero when no balance controller runs).
-  Eigen::VectorXd balance_velocity;
+  /// Velocities of dofs driven by a separate controller (balance: upper-body x/y shift;
+  /// walking: heel), nq entries or empty. They are integrated (and clamped) whatever b_C
+  /// says; those dofs should be frozen in b_C so the solver leaves them alone (section V).
+  Eigen::VectorXd external_velocity;
+  /// Feed the task velocity these cause, x_bal = J q_dot_external, into the solver:
+  /// q_dot = J# (x_dot_task - x_bal) - alpha N W^-1 dH/dq (eqs. 19-21).
+  bool compensate_external = true;
 };
 
 /// Flags of a controller cycle beyond the solver's (SolverFlag).
@@ -61,10 +65,15 @@ class Controller {
   /// @throws ModelError if q has the wrong size, a NaN, or lies outside the limits.
   void reset(const Eigen::VectorXd& q);
   /// A command sized for this controller: current values as targets, all rows active,
-  /// all dofs free, no balance velocity.
+  /// all dofs free, no external velocity.
   Command make_command() const;
 
   /// One cycle of duration dt [s]. Never allocates, never throws, never writes NaN.
+  ///
+  /// A dof that sits at a position limit and would be driven further out is frozen for
+  /// this cycle and the solve repeated (at most three times), so that the other dofs take
+  /// over its share instead of the task stalling against the clamp (IV.E clamps; this keeps
+  /// the clamp from fighting the task).
   ControllerStatus update(const Command& command, double dt);
 
   const Model& model() const { return model_; }
@@ -94,7 +103,9 @@ class Controller {
   SolverParameters solver_parameters_;
   std::unique_ptr<WholeBodySolver> solver_;  // sized in reset() for the final task rows
   Eigen::VectorXd q_, qdot_, q_next_, gradient_, values_, previous_values_, value_rates_;
-  Mask was_active_;
+  Eigen::VectorXd q_total_;  // solver output plus external velocities
+  Mask was_active_, was_row_active_;
+  Mask free_;  // b_C with dofs frozen at their limits
   Eigen::VectorXd commanded_;  // last valid target per element
 };
 

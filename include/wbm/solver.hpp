@@ -40,6 +40,7 @@ enum SolverFlag : std::uint32_t {
   kAllDofsFrozen = 1u << 6,         ///< Every dof constrained: q_dot = 0.
   kInvalidInput = 1u << 7,          ///< NaN/inf input or wrong sizes: q_dot = 0, state kept.
   kJointLimitClamped = 1u << 8,     ///< A joint was clamped at its limit (integrate()).
+  kDofAtLimitFrozen = 1u << 9,      ///< A dof at its limit was frozen for the cycle (Controller).
 };
 
 struct SolverStatus {

@@ -39,10 +39,9 @@ class TaskElement {
   double gain() const { return gain_; }
   /// @throws ConfigError if gain < 0 or not finite.
   void set_gain(double gain);
-  /// True if the element needs center_of_mass() to have been called.
-  virtual bool needs_center_of_mass() const { return false; }
 
-  /// Current value (target_dim entries) from the last forward kinematics.
+  /// Current value (target_dim entries) from the last forward_kinematics() (and
+  /// center_of_mass() for centre-of-mass elements).
   virtual void value(const Model& model, const Data& data, Eigen::Ref<Eigen::VectorXd> x) = 0;
 
   /// Jacobian rows J (dim x nq), error e (dim) and feed-forward rate r (dim) for a target

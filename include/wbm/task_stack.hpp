@@ -61,7 +61,6 @@ class TaskStack {
   const Eigen::VectorXd& errors() const { return errors_; }
   /// Row of the full task vector for each assembled row.
   const std::vector<int>& active_row_indices() const { return active_index_; }
-  bool needs_center_of_mass() const;
 
  private:
   std::vector<std::unique_ptr<TaskElement>> elements_;

@@ -36,6 +36,9 @@ class TrajectoryFilter {
   /// Starts from the actual value and velocity, so nothing jumps when an element is
   /// switched on: the stages are placed on the line x + (n - k) v / omega.
   void reset(const Eigen::Ref<const Eigen::VectorXd>& value, const Eigen::Ref<const Eigen::VectorXd>& velocity);
+  /// Restarts one component of a vector filter from its actual value and velocity (a row
+  /// of a partly active element being switched on); the other components keep going.
+  void reset_component(int i, double value, double velocity);
   /// Advances by dt towards `target`. Never allocates.
   void update(const Eigen::Ref<const Eigen::VectorXd>& target, double dt);
   /// Filtered value and its time derivative.

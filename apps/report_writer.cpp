@@ -1,0 +1,186 @@
+#include "report_writer.hpp"
+
+#include <cmath>
+#include <set>
+
+#include <nlohmann/json.hpp>
+
+#include "runner.hpp"
+#include "wbm/errors.hpp"
+
+namespace wbm {
+namespace {
+
+using nlohmann::json;
+
+constexpr int kMaxSamples = 1500;  // 3D animation and plot samples in the page
+
+json xyz(const Vector3& v) { return json::array({v.x(), v.y(), v.z()}); }
+
+json value_or_null(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+}  // namespace
+
+std::string render_report(const ScenarioRun& run) {
+  const Scenario& s = run.scenario;
+  const Model& model = *run.model;
+  const TaskStack& stack = run.controller->tasks();
+  const int K = run.num_cycles();
+  const int stride = std::max(1, (K + kMaxSamples - 1) / kMaxSamples);
+  std::vector<int> samples;
+  for (int k = 0; k < K; k += stride) samples.push_back(k);
+  if (samples.back() != K - 1) samples.push_back(K - 1);
+
+  json data;
+  data["title"] = "wbm: " + s.name;
+  data["subtitle"] = s.description + " (model " + model.name() + ", " + std::to_string(model.num_dofs()) + " dofs)";
+  json time = json::array();
+  for (int k : samples) time.push_back(run.time[k]);
+  data["time"] = time;
+
+  // Robot: the bodies from the upper body on (the virtual heel/upper-body chain is drawn
+  // as one link from the heel), and the frames the tasks use plus non-body named frames.
+  json bodies = json::array();
+  for (const Body& b : model.bodies()) bodies.push_back({{"name", b.name}, {"parent", b.parent}});
+  std::vector<int> frames;
+  std::set<int> used;
+  for (const ScenarioTask& t : s.tasks)
+    if (!t.frame.empty()) used.insert(model.frame_index(t.frame));
+  for (int f = 0; f < model.num_frames(); ++f)
+    if (used.count(f) || (model.frame(f).name != model.body(model.frame(f).body).name && model.num_frames() < 40))
+      frames.push_back(f);
+  json frame_list = json::array();
+  for (int f : frames) frame_list.push_back({{"name", model.frame(f).name}});
+  data["robot"] = {{"bodies", bodies}, {"frames", frame_list}};
+
+  Data d(model);
+  json body_pos = json::array(), frame_pos = json::array(), frame_z = json::array(), heel_path = json::array();
+  std::vector<json> target_values(stack.num_elements(), json::array());
+  for (int k : samples) {
+    forward_kinematics(model, d, run.q[k]);
+    json bp = json::array(), fp = json::array(), fz = json::array();
+    for (int b = 0; b < model.num_bodies(); ++b)
+      for (int i = 0; i < 3; ++i) bp.push_back(d.X_WB[b].p[i]);
+    for (int f : frames) {
+      const Transform X = frame_pose(model, d, f);
+      for (int i = 0; i < 3; ++i) {
+        fp.push_back(X.p[i]);
+        fz.push_back(X.R(i, 2));
+      }
+    }
+    body_pos.push_back(bp);
+    frame_pos.push_back(fp);
+    frame_z.push_back(fz);
+    if (model.virtual_dofs().heel_body >= 0) heel_path.push_back(xyz(d.X_WB[model.virtual_dofs().heel_body].p));
+    for (int e = 0; e < stack.num_elements(); ++e) {
+      const ScenarioTask& t = s.tasks[e];
+      if (run.active[k][e] == 0.0 || (t.type != "position" && t.type != "axis")) {
+        target_values[e].push_back(nullptr);
+        continue;
+      }
+      const Vector3 v = run.commanded[k].segment<3>(stack.target_offset(e));
+      Transform X_WR;
+      if (!t.reference.empty() && t.reference != "world") X_WR = frame_pose(model, d, model.frame_index(t.reference));
+      target_values[e].push_back(xyz(t.type == "position" ? Vector3(X_WR * v) : Vector3(X_WR.R * v.normalized())));
+    }
+  }
+  data["body_pos"] = body_pos;
+  data["frame_pos"] = frame_pos;
+  data["frame_z"] = frame_z;
+  json targets = json::array();
+  for (int e = 0; e < stack.num_elements(); ++e) {
+    const ScenarioTask& t = s.tasks[e];
+    if (t.type != "position" && t.type != "axis") continue;
+    const int f = model.frame_index(t.frame);
+    const int index = static_cast<int>(std::find(frames.begin(), frames.end(), f) - frames.begin());
+    targets.push_back({{"name", t.name + " (" + t.type + ")"}, {"kind", t.type}, {"frame", index}, {"values", target_values[e]}});
+  }
+  data["targets"] = targets;
+  if (model.virtual_dofs().heel_body >= 0) data["paths"] = json::array({{{"name", "heel"}, {"points", heel_path}}});
+
+  auto series = [&](const std::string& label, auto&& value) {
+    json values = json::array();
+    for (int k : samples) values.push_back(value_or_null(value(k)));
+    return json{{"label", label}, {"values", values}};
+  };
+  json plots = json::array();
+  json joints = json::array(), virtual_dofs = json::array();
+  for (int i = 0; i < model.num_dofs(); ++i) {
+    json sr = series(model.dof(i).name, [&](int k) { return run.q[k][i]; });
+    (model.dof(i).role == DofRole::kJoint ? joints : virtual_dofs).push_back(sr);
+  }
+  plots.push_back({{"title", "Joint angles"}, {"unit", "rad"}, {"series", joints}});
+  if (!virtual_dofs.empty()) plots.push_back({{"title", "Heel and upper-body dofs"}, {"unit", "m, rad"}, {"series", virtual_dofs}});
+  json errors = json::array();
+  for (int e = 0; e < stack.num_elements(); ++e) {
+    const std::string& type = s.tasks[e].type;
+    const double scale = type == "axis" || type == "attitude" ? 180.0 / M_PI : type == "joints" ? 1.0 : 1000.0;
+    const char* unit = type == "axis" || type == "attitude" ? " [deg]" : type == "joints" ? " [rad]" : " [mm]";
+    errors.push_back(series(s.tasks[e].name + unit, [&](int k) {
+      return run.active[k][e] > 0.0 ? scale * run.error[k][e] : std::nan("");
+    }));
+  }
+  plots.push_back({{"title", "Task errors to the commanded targets (inactive: gap)"}, {"unit", "mm / deg"}, {"series", errors}});
+  plots.push_back({{"title", "Null-space cost H(q)"},
+                   {"unit", ""},
+                   {"series", json::array({series("H", [&](int k) { return run.cost[k]; })})}});
+  json cond = json::array();
+  for (int e = 0; e < stack.num_elements(); ++e) {
+    if (s.tasks[e].type != "position") continue;
+    const int f = model.frame_index(s.tasks[e].frame);
+    json whole = json::array(), limb = json::array();
+    for (int k : samples) {
+      forward_kinematics(model, d, run.q[k]);
+      whole.push_back(value_or_null(position_condition_number(model, d, f, false)));
+      limb.push_back(value_or_null(position_condition_number(model, d, f, true)));
+    }
+    cond.push_back({{"label", s.tasks[e].name + " whole body"}, {"values", whole}});
+    cond.push_back({{"label", s.tasks[e].name + " joints only"}, {"values", limb}});
+  }
+  if (!cond.empty())
+    plots.push_back({{"title", "Condition number of the weighted position Jacobian"}, {"unit", ""}, {"series", cond}});
+  if (!run.balance.empty()) {
+    plots.push_back({{"title", "Balance: centre of mass and support centre (world x, y)"},
+                     {"unit", "m"},
+                     {"series", json::array({series("com x", [&](int k) { return run.balance[k][0]; }),
+                                             series("com y", [&](int k) { return run.balance[k][1]; }),
+                                             series("support centre x", [&](int k) { return run.balance[k][2]; }),
+                                             series("support centre y", [&](int k) { return run.balance[k][3]; }),
+                                             series("com margin", [&](int k) { return run.balance[k][6]; })})}});
+  }
+  data["plots"] = plots;
+
+  const json summary = summarize(run);
+  json table = json::array();
+  for (const auto& [name, e] : summary["elements"].items()) {
+    char text[160];
+    std::snprintf(text, sizeof text, "final %.3g %s, max tracking %.3g %s", e["final_error"].get<double>(),
+                  e["unit"].get<std::string>().c_str(), e["max_tracking_error"].get<double>(), e["unit"].get<std::string>().c_str());
+    table.push_back({name, text});
+  }
+  table.push_back({"max joint speed / limit", std::to_string(summary["max_joint_speed"]["ratio_to_limit"].get<double>()) +
+                                                  " (" + summary["max_joint_speed"]["dof"].get<std::string>() + ")"});
+  table.push_back({"min distance to a joint limit",
+                   std::to_string(summary["min_distance_to_limit"]["value"].get<double>()) + " (" +
+                       summary["min_distance_to_limit"]["dof"].get<std::string>() + ")"});
+  if (summary.contains("cycle_time_us"))
+    table.push_back({"cycle time median / p99 [us]", std::to_string(summary["cycle_time_us"]["median"].get<double>()) + " / " +
+                                                         std::to_string(summary["cycle_time_us"]["p99"].get<double>())});
+  data["summary"] = table;
+
+  std::string text = data.dump();
+  std::string escaped;
+  escaped.reserve(text.size());
+  for (char ch : text) {
+    if (ch == '<') escaped += "\\u003c";
+    else escaped += ch;
+  }
+  std::string page = report_template();
+  const std::string placeholder = "__WBM_REPORT_DATA__";
+  const size_t at = page.find(placeholder);
+  if (at == std::string::npos) throw ConfigError("report template has no data placeholder");
+  page.replace(at, placeholder.size(), escaped);
+  return page;
+}
+
+}  // namespace wbm

@@ -1,0 +1,386 @@
+#include "runner.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <sstream>
+
+#include <Eigen/SVD>
+
+#include "report_writer.hpp"
+#include "wbm/balance.hpp"
+#include "wbm/errors.hpp"
+#include "wbm/paper_model.hpp"
+#include "wbm/tasks/attitude_task.hpp"
+#include "wbm/tasks/axis_task.hpp"
+#include "wbm/tasks/com_task.hpp"
+#include "wbm/tasks/joint_task.hpp"
+#include "wbm/tasks/position_task.hpp"
+
+namespace wbm {
+namespace {
+
+using nlohmann::json;
+
+[[noreturn]] void fail(const Scenario& s, int line, const std::string& message) {
+  throw ConfigError(s.source + ":" + std::to_string(line) + ": " + message);
+}
+
+std::unique_ptr<TaskElement> make_element(const Model& model, const ScenarioTask& t) {
+  std::unique_ptr<TaskElement> e;
+  if (t.type == "position") e = std::make_unique<PositionTask>(model, t.name, t.frame, t.reference);
+  if (t.type == "axis") e = std::make_unique<AxisTask>(model, t.name, t.frame, t.reference);
+  if (t.type == "attitude") e = std::make_unique<AttitudeTask>(model, t.name, t.frame, t.reference);
+  if (t.type == "com") e = std::make_unique<CenterOfMassTask>(model, t.name, t.reference);
+  if (t.type == "joints") e = std::make_unique<JointTask>(model, t.name, t.dofs);
+  e->set_gain(t.gain);
+  return e;
+}
+
+/// Rows of the task vector named by "element" or "element.component".
+std::vector<int> resolve_rows(const Scenario& s, const Controller& c, const RowSelection& sel) {
+  const TaskStack& stack = c.tasks();
+  const size_t dot = sel.text.find('.');
+  const std::string name = sel.text.substr(0, dot);
+  int element = -1;
+  for (int i = 0; i < stack.num_elements(); ++i)
+    if (stack.element(i).name() == name) element = i;
+  if (element < 0) fail(s, sel.line, "no task element named '" + name + "'");
+  const int r0 = stack.row_offset(element), dim = stack.element(element).dim();
+  std::vector<int> rows;
+  if (dot == std::string::npos) {
+    for (int r = 0; r < dim; ++r) rows.push_back(r0 + r);
+    return rows;
+  }
+  const std::string component = sel.text.substr(dot + 1);
+  const std::string& type = s.tasks[element].type;
+  std::vector<std::string> names;
+  if (type == "position" || type == "com") names = {"x", "y", "z"};
+  if (type == "attitude") names = {"roll", "pitch", "yaw"};
+  if (type == "axis") names = {"0", "1"};
+  if (type == "joints") names = s.tasks[element].dofs;
+  for (int r = 0; r < dim; ++r)
+    if (names[r] == component || std::to_string(r) == component) return {r0 + r};
+  fail(s, sel.line, "task element '" + name + "' has no row '" + component + "'");
+}
+
+/// Scalar distance between a value and a target of an element (m, rad). For elements whose
+/// rows are the target's components, only the active rows count.
+double distance(const std::string& type, const Eigen::Ref<const Eigen::VectorXd>& a,
+                const Eigen::Ref<const Eigen::VectorXd>& b, const Eigen::Ref<const Mask>& rows) {
+  if (type == "axis") {
+    const Vector3 u = a.head<3>().normalized(), v = b.head<3>().normalized();
+    return std::atan2(u.cross(v).norm(), u.dot(v));
+  }
+  const bool all = !rows.any();
+  double sum = 0.0, max = 0.0;
+  for (int i = 0; i < a.size(); ++i) {
+    if (!all && !rows[i]) continue;
+    const double d = type == "attitude" ? std::remainder(a[i] - b[i], 2.0 * M_PI) : a[i] - b[i];
+    sum += d * d;
+    max = std::max(max, std::abs(d));
+  }
+  return type == "joints" ? max : std::sqrt(sum);
+}
+
+void progress_bar(double t, double duration, bool done) {
+  const int width = 40;
+  const double f = std::clamp(t / duration, 0.0, 1.0);
+  const int fill = static_cast<int>(f * width);
+  std::fprintf(stderr, "\r[%s%s] %3d%%  t = %.2f / %.2f s", std::string(fill, '#').c_str(),
+               std::string(width - fill, ' ').c_str(), static_cast<int>(f * 100), t, duration);
+  if (done) std::fprintf(stderr, "\n");
+  std::fflush(stderr);
+}
+
+}  // namespace
+
+Eigen::VectorXd ScenarioRun::actual_of(const std::string& name, int k) const {
+  const int e = element(name);
+  return actual[k].segment(controller->tasks().target_offset(e), controller->tasks().element(e).target_dim());
+}
+
+Eigen::VectorXd ScenarioRun::commanded_of(const std::string& name, int k) const {
+  const int e = element(name);
+  return commanded[k].segment(controller->tasks().target_offset(e), controller->tasks().element(e).target_dim());
+}
+
+double position_condition_number(const Model& model, const Data& data, int frame, bool joints_only) {
+  Eigen::MatrixXd J(6, model.num_dofs());
+  frame_jacobian(model, data, frame, J);
+  Eigen::MatrixXd Jp = J.topRows<3>();
+  for (int i = 0; i < model.num_dofs(); ++i) {
+    const bool keep = !joints_only || model.dof(i).role == DofRole::kJoint;
+    Jp.col(i) *= keep ? model.dof(i).work_range : 0.0;
+  }
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(Jp);
+  const Eigen::VectorXd sv = svd.singularValues();
+  return sv[2] > 0.0 ? sv[0] / sv[2] : std::numeric_limits<double>::infinity();
+}
+
+std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& options) {
+  auto run = std::make_unique<ScenarioRun>();
+  run->scenario = s;
+  run->model = std::make_unique<Model>(s.urdf.empty() ? make_paper_model() : load_urdf(s.urdf, s.urdf_options));
+  const Model& model = *run->model;
+  run->controller = std::make_unique<Controller>(model, s.solver);
+  Controller& c = *run->controller;
+  for (const ScenarioTask& t : s.tasks) {
+    c.add_task(make_element(model, t), t.filter);
+    run->element_types.push_back(t.type);
+  }
+  if (s.criterion == "squared") c.set_criterion(std::make_unique<JointCenterCriterion>(model));
+  else c.set_criterion(std::make_unique<CubicJointLimitCriterion>(model, s.criterion_band));
+  Eigen::VectorXd q0 = model.home();
+  for (const auto& [dof, value] : s.initial) q0[model.dof_index(dof)] = value;
+  c.reset(q0);
+  Command cmd = c.make_command();
+  cmd.external_velocity.setZero(model.num_dofs());
+  TaskStack& stack = c.tasks();
+  for (int i = 0; i < stack.num_elements(); ++i)
+    cmd.task_active.segment(stack.row_offset(i), stack.element(i).dim()).setConstant(s.tasks[i].active);
+  for (const std::string& d : s.frozen) cmd.free_dofs[model.dof_index(d)] = false;
+
+  // Resolve every name of the timeline before running, so errors come before any output.
+  struct Resolved {
+    std::vector<std::pair<int, Eigen::VectorXd>> targets, relative;
+    std::vector<int> on, off, freeze, release;
+  };
+  std::vector<Resolved> events;
+  for (const ScenarioEvent& ev : s.events) {
+    Resolved r;
+    auto element_of = [&](const std::string& name, const Eigen::VectorXd& v, bool relative) {
+      int e = -1;
+      for (int i = 0; i < stack.num_elements(); ++i)
+        if (stack.element(i).name() == name) e = i;
+      if (e < 0) fail(s, ev.line, "targets: no task element named '" + name + "'");
+      if (v.size() != stack.element(e).target_dim())
+        fail(s, ev.line, "targets." + name + ": expected " + std::to_string(stack.element(e).target_dim()) +
+                             " values, got " + std::to_string(v.size()));
+      if (relative && stack.element(e).target_kind() == TargetKind::kDirection)
+        fail(s, ev.line, "relative_targets." + name + ": axis targets must be absolute directions");
+      if (!relative && stack.element(e).target_kind() == TargetKind::kDirection && v.norm() < 1e-9)
+        fail(s, ev.line, "targets." + name + ": the direction must not be zero");
+      return e;
+    };
+    for (const auto& [name, v] : ev.targets) r.targets.emplace_back(element_of(name, v, false), v);
+    for (const auto& [name, v] : ev.relative_targets) r.relative.emplace_back(element_of(name, v, true), v);
+    for (const RowSelection& sel : ev.activate)
+      for (int row : resolve_rows(s, c, sel)) r.on.push_back(row);
+    for (const RowSelection& sel : ev.deactivate)
+      for (int row : resolve_rows(s, c, sel)) r.off.push_back(row);
+    for (const std::string& d : ev.freeze) r.freeze.push_back(model.dof_index(d));
+    for (const std::string& d : ev.release) r.release.push_back(model.dof_index(d));
+    events.push_back(r);
+  }
+
+  std::unique_ptr<BalanceModule> balance;
+  bool balance_on = s.balance.enabled;
+  bool balance_needed = s.balance.enabled;
+  for (const ScenarioEvent& ev : s.events) balance_needed |= ev.balance == 1;
+  SupportPolygon support;
+  if (balance_needed) {
+    balance = std::make_unique<BalanceModule>(model, std::make_unique<CenterOfMassCentering>(s.balance.gain, s.balance.margin));
+    const Data& d = c.data();
+    const Matrix3& R = d.X_WB[model.virtual_dofs().heel_body].R;
+    support = SupportPolygon::standing(d.X_WB[model.virtual_dofs().heel_body].p.head<2>(), std::atan2(R(1, 0), R(0, 0)),
+                                       balance->feet());
+  }
+  cmd.compensate_external = s.balance.compensate;
+
+  const int steps = static_cast<int>(std::lround(s.duration / s.dt));
+  const int n_el = stack.num_elements();
+  auto record = [&](double t, std::uint32_t flags, double us) {
+    run->time.push_back(t);
+    run->q.push_back(c.q());
+    run->qdot.push_back(c.qdot());
+    run->commanded.push_back(cmd.targets);
+    run->filtered.push_back(c.filtered_targets());
+    run->actual.push_back(c.values());
+    Eigen::VectorXd err(n_el), track(n_el), act(n_el);
+    for (int i = 0; i < n_el; ++i) {
+      const int t0 = stack.target_offset(i), n = stack.element(i).target_dim();
+      const auto rows = stack.activation().segment(stack.row_offset(i), stack.element(i).dim());
+      err[i] = distance(s.tasks[i].type, c.values().segment(t0, n), cmd.targets.segment(t0, n), rows);
+      track[i] = distance(s.tasks[i].type, c.values().segment(t0, n), c.filtered_targets().segment(t0, n), rows);
+      act[i] = stack.element_active(i) ? 1.0 : 0.0;
+    }
+    run->error.push_back(err);
+    run->tracking_error.push_back(track);
+    run->active.push_back(act);
+    run->flags.push_back(flags);
+    run->cost.push_back(c.nullspace_cost());
+    run->cycle_us.push_back(us);
+    run->min_singular_value.push_back(c.solver().output().min_singular_value);
+    if (balance) {
+      Eigen::VectorXd b(7);
+      const Vector2 com = c.data().p_WCm.head<2>();
+      b << com.x(), com.y(), support.centroid().x(), support.centroid().y(),
+          c.q()[model.virtual_dofs().ub_x], c.q()[model.virtual_dofs().ub_y], support.signed_distance(com);
+      run->balance.push_back(b);
+    }
+  };
+  record(0.0, 0, 0.0);
+  const bool tty = options.progress && isatty(STDERR_FILENO);
+  size_t next_event = 0;
+  for (int k = 1; k <= steps; ++k) {
+    const double t_start = (k - 1) * s.dt;
+    while (next_event < s.events.size() && s.events[next_event].time <= t_start + 1e-12) {
+      const Resolved& r = events[next_event];
+      for (const auto& [e, v] : r.targets) cmd.targets.segment(stack.target_offset(e), v.size()) = v;
+      for (const auto& [e, v] : r.relative)
+        cmd.targets.segment(stack.target_offset(e), v.size()) = c.values().segment(stack.target_offset(e), v.size()) + v;
+      for (int row : r.on) cmd.task_active[row] = true;
+      for (int row : r.off) cmd.task_active[row] = false;
+      for (int d : r.freeze) cmd.free_dofs[d] = false;
+      for (int d : r.release) cmd.free_dofs[d] = true;
+      if (s.events[next_event].balance >= 0) {
+        balance_on = s.events[next_event].balance == 1;
+        if (!balance_on) balance->disable(cmd);
+      }
+      ++next_event;
+    }
+    if (balance && balance_on) balance->update(c.data(), support, s.dt, cmd);
+    const auto t0 = std::chrono::steady_clock::now();
+    const ControllerStatus st = c.update(cmd, s.dt);
+    const auto t1 = std::chrono::steady_clock::now();
+    record(k * s.dt, st.flags, std::chrono::duration<double, std::micro>(t1 - t0).count());
+    if (tty && (k % 200 == 0 || k == steps)) progress_bar(k * s.dt, s.duration, k == steps);
+  }
+  return run;
+}
+
+json summarize(const ScenarioRun& run) {
+  const Scenario& s = run.scenario;
+  const Model& model = *run.model;
+  const int n = model.num_dofs();
+  const int K = run.num_cycles();
+  json out;
+  out["scenario"] = s.name;
+  out["description"] = s.description;
+  out["model"] = model.name();
+  out["dofs"] = n;
+  out["dt"] = s.dt;
+  out["duration"] = s.duration;
+  out["cycles"] = K - 1;
+  json elements = json::object();
+  for (int i = 0; i < static_cast<int>(s.tasks.size()); ++i) {
+    const std::string& type = run.element_types[i];
+    const bool angular = type == "axis" || type == "attitude";
+    double max_error = 0.0, max_tracking = 0.0;
+    for (int k = 0; k < K; ++k)
+      if (run.active[k][i] > 0.0) {
+        max_error = std::max(max_error, run.error[k][i]);
+        max_tracking = std::max(max_tracking, run.tracking_error[k][i]);
+      }
+    elements[s.tasks[i].name] = {{"type", type},
+                                 {"unit", angular ? "deg" : (type == "joints" ? "rad" : "mm")},
+                                 {"active_at_end", run.active[K - 1][i] > 0.0},
+                                 {"final_error", run.error[K - 1][i] * (angular ? 180.0 / M_PI : type == "joints" ? 1.0 : 1000.0)},
+                                 {"max_error", max_error * (angular ? 180.0 / M_PI : type == "joints" ? 1.0 : 1000.0)},
+                                 {"max_tracking_error", max_tracking * (angular ? 180.0 / M_PI : type == "joints" ? 1.0 : 1000.0)}};
+  }
+  out["elements"] = elements;
+  double max_speed_ratio = 0.0, max_speed = 0.0, max_acc = 0.0, min_limit = std::numeric_limits<double>::infinity();
+  int speed_dof = 0, acc_dof = 0, limit_dof = 0;
+  for (int k = 0; k < K; ++k)
+    for (int i = 0; i < n; ++i) {
+      const double v = std::abs(run.qdot[k][i]);
+      if (v / model.dof(i).max_speed > max_speed_ratio) {
+        max_speed_ratio = v / model.dof(i).max_speed;
+        max_speed = v;
+        speed_dof = i;
+      }
+      if (k >= 1) {
+        const double a = std::abs(run.qdot[k][i] - run.qdot[k - 1][i]) / s.dt;
+        if (a > max_acc) {
+          max_acc = a;
+          acc_dof = i;
+        }
+      }
+      if (!model.dof(i).continuous && model.dof(i).role == DofRole::kJoint) {
+        const double d = std::min(run.q[k][i] - model.dof(i).lower, model.dof(i).upper - run.q[k][i]);
+        if (d < min_limit) {
+          min_limit = d;
+          limit_dof = i;
+        }
+      }
+    }
+  out["max_joint_speed"] = {{"value", max_speed}, {"dof", model.dof(speed_dof).name}, {"ratio_to_limit", max_speed_ratio}};
+  out["max_joint_acceleration"] = {{"value", max_acc}, {"dof", model.dof(acc_dof).name}};
+  out["min_distance_to_limit"] = {{"value", std::isfinite(min_limit) ? min_limit : 0.0}, {"dof", model.dof(limit_dof).name}};
+  std::vector<double> us(run.cycle_us.begin() + 1, run.cycle_us.end());
+  std::sort(us.begin(), us.end());
+  if (!us.empty()) {
+    double mean = 0.0;
+    for (double u : us) mean += u;
+    out["cycle_time_us"] = {{"mean", mean / us.size()}, {"median", us[us.size() / 2]},
+                            {"p99", us[std::min(us.size() - 1, us.size() * 99 / 100)]}, {"max", us.back()}};
+  }
+  static const std::vector<std::pair<std::uint32_t, const char*>> kFlags = {
+      {kDamped, "damped"}, {kOverdetermined, "overdetermined"}, {kTaskSpeedLimited, "task_speed_limited"},
+      {kNullSpaceSpeedScaled, "nullspace_speed_scaled"}, {kNullSpaceJerkLimited, "nullspace_jerk_limited"},
+      {kNoActiveRows, "no_active_rows"}, {kAllDofsFrozen, "all_dofs_frozen"}, {kInvalidInput, "invalid_input"},
+      {kJointLimitClamped, "joint_limit_clamped"}, {kDofAtLimitFrozen, "dof_at_limit_frozen"}, {kInvalidCommand, "invalid_command"}, {kInvalidTarget, "invalid_target"}};
+  json counts = json::object();
+  for (const auto& [flag, name] : kFlags) {
+    int count = 0;
+    for (std::uint32_t f : run.flags) count += (f & flag) ? 1 : 0;
+    counts[name] = count;
+  }
+  out["status_cycles"] = counts;
+  out["nullspace_cost"] = {{"initial", run.cost.front()}, {"final", run.cost.back()},
+                           {"max", *std::max_element(run.cost.begin(), run.cost.end())}};
+  return out;
+}
+
+void write_outputs(const ScenarioRun& run, const std::string& directory, bool report) {
+  namespace fs = std::filesystem;
+  fs::create_directories(directory);
+  const Scenario& s = run.scenario;
+  const Model& model = *run.model;
+  const TaskStack& stack = run.controller->tasks();
+  std::map<std::string, std::string> files;
+
+  std::ostringstream csv;
+  csv << std::setprecision(10) << "time,status";
+  for (const Dof& d : model.dofs()) csv << ",q." << d.name;
+  for (int i = 0; i < stack.num_elements(); ++i) {
+    const std::string& name = stack.element(i).name();
+    for (const char* kind : {"target", "filtered", "actual"})
+      for (int j = 0; j < stack.element(i).target_dim(); ++j) csv << "," << name << "." << kind << "." << j;
+    csv << "," << name << ".active," << name << ".error";
+  }
+  csv << ",nullspace_cost,cycle_us\n";
+  for (int k = 0; k < run.num_cycles(); k += s.record_every) {
+    csv << run.time[k] << "," << run.flags[k];
+    for (int i = 0; i < model.num_dofs(); ++i) csv << "," << run.q[k][i];
+    for (int i = 0; i < stack.num_elements(); ++i) {
+      const int t0 = stack.target_offset(i), n = stack.element(i).target_dim();
+      for (const auto* v : {&run.commanded[k], &run.filtered[k], &run.actual[k]})
+        for (int j = 0; j < n; ++j) csv << "," << (*v)[t0 + j];
+      csv << "," << run.active[k][i] << "," << run.error[k][i];
+    }
+    csv << "," << run.cost[k] << "," << run.cycle_us[k] << "\n";
+  }
+  files["trajectory.csv"] = csv.str();
+  files["summary.json"] = summarize(run).dump(2) + "\n";
+  if (report) files["report.html"] = render_report(run);
+  // Write everything to temporaries first, then rename: a failure leaves no partial output.
+  for (const auto& [name, text] : files) {
+    std::ofstream out(directory + "/" + name + ".tmp", std::ios::binary);
+    out << text;
+    if (!out) throw ConfigError(directory + "/" + name + ": cannot write the file");
+  }
+  for (const auto& [name, text] : files) fs::rename(directory + "/" + name + ".tmp", directory + "/" + name);
+}
+
+}  // namespace wbm

@@ -1,0 +1,59 @@
+#pragma once
+/// @file
+/// Runs a scenario as a motion simulation and records every cycle.
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+
+#include "scenario.hpp"
+#include "wbm/controller.hpp"
+
+namespace wbm {
+
+/// Everything recorded, one entry per cycle (index 0 is the initial state).
+struct ScenarioRun {
+  Scenario scenario;
+  std::unique_ptr<Model> model;
+  std::unique_ptr<Controller> controller;
+  std::vector<std::string> element_types;
+  std::vector<double> time;
+  std::vector<Eigen::VectorXd> q, qdot;
+  std::vector<Eigen::VectorXd> commanded, filtered, actual;  ///< num_targets each
+  std::vector<Eigen::VectorXd> error, tracking_error;        ///< per element: distance to commanded / filtered target
+  std::vector<Eigen::VectorXd> active;                       ///< per element 0/1
+  std::vector<std::uint32_t> flags;
+  std::vector<double> cost, cycle_us, min_singular_value;
+  std::vector<Eigen::VectorXd> balance;                      ///< com_x, com_y, support centre x, y, ub shift x, y (when balance runs)
+
+  int num_cycles() const { return static_cast<int>(time.size()); }
+  int element(const std::string& name) const { return controller->tasks().element_index(name); }
+  /// Target entries of an element at cycle k.
+  Eigen::VectorXd actual_of(const std::string& name, int k) const;
+  Eigen::VectorXd commanded_of(const std::string& name, int k) const;
+};
+
+struct RunOptions {
+  bool progress = false;  ///< progress bar on stderr
+};
+
+/// Builds the model and controller and simulates the scenario.
+/// @throws ConfigError / ModelError naming the scenario line for unknown names or sizes.
+std::unique_ptr<ScenarioRun> run_scenario(const Scenario& scenario, const RunOptions& options = {});
+
+/// Per-element final and maximum errors, joint speed/acceleration maxima, limit distances,
+/// cycle-time statistics and status counts.
+nlohmann::json summarize(const ScenarioRun& run);
+
+/// Writes trajectory.csv, summary.json and report.html into `directory` (created if
+/// needed). Files are written to temporaries and renamed, so nothing half-written remains.
+void write_outputs(const ScenarioRun& run, const std::string& directory, bool report = true);
+
+/// Condition number of the 3-row position Jacobian of `frame`, weighted by W^-1/2
+/// (sigma_max / sigma_min), using all dofs or only the robot's joints (no virtual dofs).
+double position_condition_number(const Model& model, const Data& data, int frame, bool joints_only);
+
+}  // namespace wbm

@@ -1,0 +1,244 @@
+#include "scenario.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include <yaml-cpp/yaml.h>
+
+#include "wbm/errors.hpp"
+
+namespace wbm {
+namespace {
+
+class Reader {
+ public:
+  explicit Reader(std::string source) : source_(std::move(source)) {}
+
+  [[noreturn]] void fail(const YAML::Node& node, const std::string& field, const std::string& message) const {
+    const int line = node.Mark().line >= 0 ? node.Mark().line + 1 : 0;
+    throw ConfigError(source_ + ":" + std::to_string(line) + ": " + field + ": " + message);
+  }
+  int line(const YAML::Node& node) const { return node.Mark().line + 1; }
+
+  double number(const YAML::Node& node, const std::string& field) const {
+    if (!node.IsScalar()) fail(node, field, "expected a number");
+    try {
+      const double v = node.as<double>();
+      if (!std::isfinite(v)) fail(node, field, "expected a finite number, got '" + node.Scalar() + "'");
+      return v;
+    } catch (const YAML::Exception&) {
+      fail(node, field, "expected a number, got '" + node.Scalar() + "'");
+    }
+  }
+  double positive(const YAML::Node& node, const std::string& field) const {
+    const double v = number(node, field);
+    if (v <= 0.0) fail(node, field, "expected a number > 0");
+    return v;
+  }
+  std::string text(const YAML::Node& node, const std::string& field) const {
+    if (!node.IsScalar()) fail(node, field, "expected a string");
+    return node.Scalar();
+  }
+  bool boolean(const YAML::Node& node, const std::string& field) const {
+    try {
+      return node.as<bool>();
+    } catch (const YAML::Exception&) {
+      fail(node, field, "expected true or false");
+    }
+  }
+  std::vector<std::string> strings(const YAML::Node& node, const std::string& field) const {
+    std::vector<std::string> out;
+    if (node.IsScalar()) return {node.Scalar()};
+    if (!node.IsSequence()) fail(node, field, "expected a list of names");
+    for (size_t i = 0; i < node.size(); ++i) out.push_back(text(node[i], field + "[" + std::to_string(i) + "]"));
+    return out;
+  }
+  Eigen::VectorXd vector(const YAML::Node& node, const std::string& field) const {
+    if (node.IsScalar()) return Eigen::VectorXd::Constant(1, number(node, field));
+    if (!node.IsSequence() || node.size() == 0) fail(node, field, "expected a list of numbers");
+    Eigen::VectorXd v(node.size());
+    for (size_t i = 0; i < node.size(); ++i) v[i] = number(node[i], field + "[" + std::to_string(i) + "]");
+    return v;
+  }
+  void only(const YAML::Node& map, const std::string& field, const std::set<std::string>& keys) const {
+    if (!map.IsMap()) fail(map, field, "expected a mapping");
+    for (const auto& kv : map) {
+      const std::string key = kv.first.Scalar();
+      if (!keys.count(key)) {
+        std::string list;
+        for (const std::string& k : keys) list += (list.empty() ? "" : ", ") + k;
+        fail(kv.first, field.empty() ? key : field + "." + key, "unknown field (expected one of: " + list + ")");
+      }
+    }
+  }
+
+ private:
+  std::string source_;
+};
+
+FilterParameters read_filter(const Reader& r, const YAML::Node& node, const std::string& field, FilterParameters f) {
+  r.only(node, field, {"bandwidth", "max_speed", "order"});
+  if (node["bandwidth"]) f.bandwidth = r.positive(node["bandwidth"], field + ".bandwidth");
+  if (node["max_speed"]) f.max_speed = r.positive(node["max_speed"], field + ".max_speed");
+  if (node["order"]) {
+    const double order = r.number(node["order"], field + ".order");
+    if (order != std::floor(order) || order < 2 || order > 6) r.fail(node["order"], field + ".order", "expected an integer in [2, 6]");
+    f.order = static_cast<int>(order);
+  }
+  return f;
+}
+
+std::vector<std::pair<std::string, Eigen::VectorXd>> read_targets(const Reader& r, const YAML::Node& node,
+                                                                   const std::string& field) {
+  if (!node.IsMap()) r.fail(node, field, "expected a mapping element: [values]");
+  std::vector<std::pair<std::string, Eigen::VectorXd>> out;
+  for (const auto& kv : node) out.emplace_back(kv.first.Scalar(), r.vector(kv.second, field + "." + kv.first.Scalar()));
+  return out;
+}
+
+std::vector<RowSelection> read_rows(const Reader& r, const YAML::Node& node, const std::string& field) {
+  std::vector<RowSelection> out;
+  const std::vector<std::string> names = r.strings(node, field);
+  for (const std::string& n : names) out.push_back({n, r.line(node)});
+  return out;
+}
+
+}  // namespace
+
+Scenario load_scenario(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw ConfigError(path + ": cannot open the scenario file");
+  std::stringstream text;
+  text << in.rdbuf();
+  const size_t slash = path.find_last_of('/');
+  return parse_scenario(text.str(), path, slash == std::string::npos ? "." : path.substr(0, slash));
+}
+
+Scenario parse_scenario(const std::string& yaml, const std::string& source, const std::string& base_dir) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml);
+  } catch (const YAML::ParserException& e) {
+    throw ConfigError(source + ":" + std::to_string(e.mark.line + 1) + ": malformed YAML: " + e.msg);
+  }
+  const Reader r(source);
+  Scenario s;
+  s.source = source;
+  if (!root.IsMap()) throw ConfigError(source + ":1: expected a mapping with name, robot, tasks, timeline, ...");
+  r.only(root, "", {"name", "description", "robot", "dt", "duration", "record_every", "solver", "criterion", "initial",
+                    "frozen", "tasks", "timeline", "balance"});
+  if (!root["name"]) throw ConfigError(source + ":1: name: missing (expected a scenario name)");
+  s.name = r.text(root["name"], "name");
+  if (root["description"]) s.description = r.text(root["description"], "description");
+  if (const YAML::Node robot = root["robot"]) {
+    r.only(robot, "robot", {"builtin", "urdf", "root", "legs", "drop_legs", "root_height", "default_limits"});
+    if (robot["builtin"] && r.text(robot["builtin"], "robot.builtin") != "paper")
+      r.fail(robot["builtin"], "robot.builtin", "expected 'paper' (the only built-in model)");
+    if (robot["urdf"]) {
+      s.urdf = r.text(robot["urdf"], "robot.urdf");
+      if (!s.urdf.empty() && s.urdf[0] != '/') s.urdf = base_dir + "/" + s.urdf;
+    }
+    if (robot["root"]) s.urdf_options.root = r.text(robot["root"], "robot.root");
+    if (robot["legs"]) s.urdf_options.legs = r.strings(robot["legs"], "robot.legs");
+    if (robot["drop_legs"] && r.boolean(robot["drop_legs"], "robot.drop_legs")) s.urdf_options.leg_mode = LegMode::kDrop;
+    if (robot["root_height"]) s.urdf_options.root_height = r.positive(robot["root_height"], "robot.root_height");
+    if (robot["default_limits"]) s.urdf_options.default_limits = r.boolean(robot["default_limits"], "robot.default_limits");
+  }
+  if (root["dt"]) s.dt = r.positive(root["dt"], "dt");
+  if (root["duration"]) s.duration = r.positive(root["duration"], "duration");
+  s.record_every = std::max(1, static_cast<int>(std::lround(0.01 / s.dt)));
+  if (root["record_every"]) s.record_every = static_cast<int>(r.positive(root["record_every"], "record_every"));
+  if (const YAML::Node solver = root["solver"]) {
+    r.only(solver, "solver", {"nullspace_gain", "singular_threshold", "max_damping", "jerk_limit", "limit_speeds"});
+    if (solver["nullspace_gain"]) s.solver.nullspace_gain = r.number(solver["nullspace_gain"], "solver.nullspace_gain");
+    if (solver["singular_threshold"]) s.solver.singular_threshold = r.positive(solver["singular_threshold"], "solver.singular_threshold");
+    if (solver["max_damping"]) s.solver.max_damping = r.positive(solver["max_damping"], "solver.max_damping");
+    if (solver["jerk_limit"]) s.solver.nullspace_rate_change_limit = r.number(solver["jerk_limit"], "solver.jerk_limit");
+    if (solver["limit_speeds"]) s.solver.limit_speeds = r.boolean(solver["limit_speeds"], "solver.limit_speeds");
+    if (s.solver.nullspace_gain < 0.0) r.fail(solver["nullspace_gain"], "solver.nullspace_gain", "expected a number >= 0");
+    if (s.solver.nullspace_rate_change_limit < 0.0) r.fail(solver["jerk_limit"], "solver.jerk_limit", "expected a number >= 0 (0 = off)");
+  }
+  if (const YAML::Node criterion = root["criterion"]) {
+    r.only(criterion, "criterion", {"type", "band"});
+    if (criterion["type"]) s.criterion = r.text(criterion["type"], "criterion.type");
+    if (s.criterion != "cubic" && s.criterion != "squared")
+      r.fail(criterion["type"], "criterion.type", "expected 'cubic' or 'squared'");
+    if (criterion["band"]) s.criterion_band = r.number(criterion["band"], "criterion.band");
+    if (!(s.criterion_band >= 0.0 && s.criterion_band < 1.0)) r.fail(criterion["band"], "criterion.band", "expected a number in [0, 1)");
+  }
+  if (const YAML::Node initial = root["initial"]) {
+    if (!initial.IsMap()) r.fail(initial, "initial", "expected a mapping dof: value");
+    for (const auto& kv : initial) s.initial.emplace_back(kv.first.Scalar(), r.number(kv.second, "initial." + kv.first.Scalar()));
+  }
+  if (root["frozen"]) s.frozen = r.strings(root["frozen"], "frozen");
+  if (const YAML::Node balance = root["balance"]) {
+    r.only(balance, "balance", {"enabled", "compensate", "gain", "margin"});
+    if (balance["enabled"]) s.balance.enabled = r.boolean(balance["enabled"], "balance.enabled");
+    if (balance["compensate"]) s.balance.compensate = r.boolean(balance["compensate"], "balance.compensate");
+    if (balance["gain"]) s.balance.gain = r.positive(balance["gain"], "balance.gain");
+    if (balance["margin"]) s.balance.margin = r.number(balance["margin"], "balance.margin");
+  }
+  const YAML::Node tasks = root["tasks"];
+  if (!tasks || !tasks.IsSequence() || tasks.size() == 0)
+    r.fail(tasks ? tasks : root, "tasks", "expected a non-empty list of task elements");
+  std::set<std::string> names;
+  for (size_t i = 0; i < tasks.size(); ++i) {
+    const YAML::Node t = tasks[i];
+    const std::string field = "tasks[" + std::to_string(i) + "]";
+    r.only(t, field, {"name", "type", "frame", "reference", "dofs", "gain", "filter", "active"});
+    ScenarioTask task;
+    if (!t["name"]) r.fail(t, field + ".name", "missing");
+    if (!t["type"]) r.fail(t, field + ".type", "missing (expected position, axis, attitude, com or joints)");
+    task.name = r.text(t["name"], field + ".name");
+    if (!names.insert(task.name).second) r.fail(t["name"], field + ".name", "duplicate element name '" + task.name + "'");
+    task.type = r.text(t["type"], field + ".type");
+    static const std::set<std::string> kTypes = {"position", "axis", "attitude", "com", "joints"};
+    if (!kTypes.count(task.type))
+      r.fail(t["type"], field + ".type", "unknown type '" + task.type + "' (expected position, axis, attitude, com or joints)");
+    const bool needs_frame = task.type == "position" || task.type == "axis" || task.type == "attitude";
+    if (needs_frame && !t["frame"]) r.fail(t, field + ".frame", "missing (the frame this " + task.type + " task moves)");
+    if (t["frame"]) task.frame = r.text(t["frame"], field + ".frame");
+    if (t["reference"]) task.reference = r.text(t["reference"], field + ".reference");
+    if (task.type == "joints") {
+      if (!t["dofs"]) r.fail(t, field + ".dofs", "missing (the dofs of this joints task)");
+      task.dofs = r.strings(t["dofs"], field + ".dofs");
+    }
+    if (t["gain"]) {
+      task.gain = r.number(t["gain"], field + ".gain");
+      if (task.gain < 0.0) r.fail(t["gain"], field + ".gain", "expected a number >= 0 [1/s]");
+    }
+    FilterParameters defaults;
+    if (task.type == "axis" || task.type == "attitude") defaults.max_speed = 1.0;
+    task.filter = t["filter"] ? read_filter(r, t["filter"], field + ".filter", defaults) : defaults;
+    if (t["active"]) task.active = r.boolean(t["active"], field + ".active");
+    s.tasks.push_back(task);
+  }
+  if (const YAML::Node timeline = root["timeline"]) {
+    if (!timeline.IsSequence()) r.fail(timeline, "timeline", "expected a list of events");
+    for (size_t i = 0; i < timeline.size(); ++i) {
+      const YAML::Node e = timeline[i];
+      const std::string field = "timeline[" + std::to_string(i) + "]";
+      r.only(e, field, {"t", "targets", "relative_targets", "activate", "deactivate", "freeze", "release", "balance"});
+      ScenarioEvent ev;
+      ev.line = r.line(e);
+      if (!e["t"]) r.fail(e, field + ".t", "missing (the event time in seconds)");
+      ev.time = r.number(e["t"], field + ".t");
+      if (ev.time < 0.0) r.fail(e["t"], field + ".t", "expected a time >= 0 s");
+      if (e["targets"]) ev.targets = read_targets(r, e["targets"], field + ".targets");
+      if (e["relative_targets"]) ev.relative_targets = read_targets(r, e["relative_targets"], field + ".relative_targets");
+      if (e["activate"]) ev.activate = read_rows(r, e["activate"], field + ".activate");
+      if (e["deactivate"]) ev.deactivate = read_rows(r, e["deactivate"], field + ".deactivate");
+      if (e["freeze"]) ev.freeze = r.strings(e["freeze"], field + ".freeze");
+      if (e["release"]) ev.release = r.strings(e["release"], field + ".release");
+      if (e["balance"]) ev.balance = r.boolean(e["balance"], field + ".balance") ? 1 : 0;
+      s.events.push_back(ev);
+    }
+    std::stable_sort(s.events.begin(), s.events.end(), [](const ScenarioEvent& a, const ScenarioEvent& b) { return a.time < b.time; });
+  }
+  return s;
+}
+
+}  // namespace wbm

@@ -1,0 +1,75 @@
+#pragma once
+/// @file
+/// Scenario files (YAML): robot, task elements, timing and a timeline of commands.
+/// The format is documented in docs/scenarios.md.
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "wbm/controller.hpp"
+#include "wbm/urdf_import.hpp"
+
+namespace wbm {
+
+struct ScenarioTask {
+  std::string name;
+  std::string type;  ///< position | axis | attitude | com | joints
+  std::string frame;
+  std::string reference;  ///< "" = world
+  std::vector<std::string> dofs;  ///< joints tasks
+  double gain = 10.0;
+  FilterParameters filter;
+  bool active = false;
+};
+
+/// A row selection "element" (all rows) or "element.component" (x/y/z, roll/pitch/yaw,
+/// a row index, or a dof name for joint tasks).
+struct RowSelection {
+  std::string text;
+  int line = 0;
+};
+
+struct ScenarioEvent {
+  double time = 0.0;
+  int line = 0;
+  std::vector<std::pair<std::string, Eigen::VectorXd>> targets;           ///< absolute
+  std::vector<std::pair<std::string, Eigen::VectorXd>> relative_targets;  ///< added to the value at that time
+  std::vector<RowSelection> activate, deactivate;
+  std::vector<std::string> freeze, release;
+  int balance = -1;  ///< -1 unchanged, 0 off, 1 on
+};
+
+struct BalanceSettings {
+  bool enabled = false;
+  bool compensate = true;  ///< feed x_bal into the solver (eq. 21)
+  double gain = 5.0;       ///< [1/s]
+  double margin = 0.0;     ///< [m]
+};
+
+struct Scenario {
+  std::string name;
+  std::string description;
+  std::string source;           ///< the file, for messages
+  std::string urdf;             ///< empty: built-in paper model
+  UrdfImportOptions urdf_options;
+  double dt = 0.001;
+  double duration = 1.0;
+  int record_every = 10;
+  SolverParameters solver;
+  std::string criterion = "cubic";
+  double criterion_band = 0.3;
+  std::vector<std::pair<std::string, double>> initial;  ///< dof values replacing the home pose
+  std::vector<std::string> frozen;                      ///< initially frozen dofs
+  std::vector<ScenarioTask> tasks;
+  std::vector<ScenarioEvent> events;                    ///< sorted by time
+  BalanceSettings balance;
+};
+
+/// @throws ConfigError "FILE:LINE: field: what was expected" for any bad entry.
+Scenario load_scenario(const std::string& path);
+Scenario parse_scenario(const std::string& yaml, const std::string& source, const std::string& base_dir);
+
+}  // namespace wbm

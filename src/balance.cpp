@@ -1,0 +1,136 @@
+#include "wbm/balance.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "wbm/errors.hpp"
+
+namespace wbm {
+namespace {
+
+double cross(const Vector2& o, const Vector2& a, const Vector2& b) {
+  return (a.x() - o.x()) * (b.y() - o.y()) - (a.y() - o.y()) * (b.x() - o.x());
+}
+
+}  // namespace
+
+SupportPolygon SupportPolygon::from_feet(const std::vector<FootPose>& feet, const FootGeometry& g) {
+  std::vector<Vector2> points;
+  for (const FootPose& f : feet) {
+    const Eigen::Rotation2Dd R(f.yaw);
+    for (const Vector2& corner : {Vector2(0.0, -0.5 * g.width), Vector2(g.length, -0.5 * g.width),
+                                 Vector2(g.length, 0.5 * g.width), Vector2(0.0, 0.5 * g.width)})
+      points.push_back(f.position + R * corner);
+  }
+  // Monotone chain convex hull, counter-clockwise.
+  std::sort(points.begin(), points.end(),
+            [](const Vector2& a, const Vector2& b) { return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y()); });
+  SupportPolygon poly;
+  std::vector<Vector2>& hull = poly.vertices_;
+  if (points.size() < 3) return poly;
+  hull.resize(2 * points.size());
+  size_t k = 0;
+  for (size_t i = 0; i < points.size(); ++i) {
+    while (k >= 2 && cross(hull[k - 2], hull[k - 1], points[i]) <= 0) --k;
+    hull[k++] = points[i];
+  }
+  for (size_t i = points.size() - 1, t = k + 1; i > 0; --i) {
+    while (k >= t && cross(hull[k - 2], hull[k - 1], points[i - 1]) <= 0) --k;
+    hull[k++] = points[i - 1];
+  }
+  hull.resize(k - 1);
+  double area = 0.0;
+  Vector2 c = Vector2::Zero();
+  for (size_t i = 0; i < hull.size(); ++i) {
+    const Vector2& a = hull[i];
+    const Vector2& b = hull[(i + 1) % hull.size()];
+    const double w = a.x() * b.y() - b.x() * a.y();
+    area += w;
+    c += w * (a + b);
+  }
+  poly.area_ = 0.5 * area;
+  poly.centroid_ = std::abs(area) > 1e-12 ? Vector2(c / (3.0 * area)) : (hull.empty() ? Vector2::Zero() : hull[0]);
+  return poly;
+}
+
+SupportPolygon SupportPolygon::standing(const Vector2& heel, double heel_yaw, const FootGeometry& g) {
+  const Eigen::Rotation2Dd R(heel_yaw);
+  return from_feet({{heel + R * Vector2(0.0, 0.5 * g.spacing), heel_yaw}, {heel + R * Vector2(0.0, -0.5 * g.spacing), heel_yaw}},
+                   g);
+}
+
+double SupportPolygon::signed_distance(const Vector2& p) const {
+  if (vertices_.size() < 3) return -std::numeric_limits<double>::infinity();
+  double inside = std::numeric_limits<double>::infinity();
+  double outside = std::numeric_limits<double>::infinity();
+  bool is_inside = true;
+  for (size_t i = 0; i < vertices_.size(); ++i) {
+    const Vector2& a = vertices_[i];
+    const Vector2& b = vertices_[(i + 1) % vertices_.size()];
+    const Vector2 e = b - a;
+    const double len = e.norm();
+    if (len < 1e-15) continue;
+    const double side = (e.x() * (p.y() - a.y()) - e.y() * (p.x() - a.x())) / len;  // > 0: left = inside
+    if (side < 0.0) is_inside = false;
+    inside = std::min(inside, side);
+    const double t = std::clamp((p - a).dot(e) / (len * len), 0.0, 1.0);
+    outside = std::min(outside, (a + t * e - p).norm());
+  }
+  return is_inside ? inside : -outside;
+}
+
+CenterOfMassCentering::CenterOfMassCentering(double gain, double margin) : gain_(gain), margin_(margin) {
+  if (!(std::isfinite(gain) && gain > 0.0)) throw ConfigError("balance: gain must be finite and > 0 [1/s]");
+  if (!(std::isfinite(margin) && margin >= 0.0)) throw ConfigError("balance: margin must be finite and >= 0 [m]");
+}
+
+Vector2 CenterOfMassCentering::shift_velocity(const Vector2& com, const SupportPolygon& support, double) {
+  if (margin_ > 0.0 && support.signed_distance(com) >= margin_) return Vector2::Zero();
+  return gain_ * (support.centroid() - com);
+}
+
+BalanceModule::BalanceModule(const Model& model, std::unique_ptr<BalanceLaw> law, const FootGeometry& feet)
+    : model_(model), law_(std::move(law)), feet_(feet), ub_x_(model.virtual_dofs().ub_x),
+      ub_y_(model.virtual_dofs().ub_y), heel_body_(model.virtual_dofs().heel_body) {
+  if (!law_) throw ConfigError("balance: no balance law");
+  if (ub_x_ < 0 || ub_y_ < 0 || heel_body_ < 0)
+    throw ConfigError("balance: model '" + model.name() + "' has no virtual heel and upper-body x/y dofs");
+  if (!(feet.length > 0.0 && feet.width > 0.0 && feet.spacing >= 0.0))
+    throw ConfigError("balance: foot length and width must be > 0 and spacing >= 0 [m]");
+}
+
+void BalanceModule::disable(Command& command) const {
+  command.free_dofs[ub_x_] = true;
+  command.free_dofs[ub_y_] = true;
+  if (command.external_velocity.size() != 0) {
+    command.external_velocity[ub_x_] = 0.0;
+    command.external_velocity[ub_y_] = 0.0;
+  }
+}
+
+std::uint32_t BalanceModule::update(const Data& data, const SupportPolygon& support, double dt, Command& command) {
+  std::uint32_t flags = kBalanceOk;
+  command.free_dofs[ub_x_] = false;
+  command.free_dofs[ub_y_] = false;
+  if (command.external_velocity.size() != model_.num_dofs()) return flags | kNoSupport;  // unsized command
+  command.external_velocity[ub_x_] = 0.0;
+  command.external_velocity[ub_y_] = 0.0;
+  const Vector2 com = data.p_WCm.head<2>();
+  last_margin_ = support.signed_distance(com);
+  if (last_margin_ < 0.0) flags |= kComOutside;
+  if (!(std::abs(support.area()) > 1e-6)) return flags | kNoSupport;
+  const Vector2 v_W = law_->shift_velocity(com, support, dt);
+  if (!v_W.allFinite()) return flags | kInvalidLawOutput;
+  // The upper-body x/y dofs translate along the heel frame's axes.
+  const Matrix3& R_WH = data.X_WB[heel_body_].R;
+  Vector2 v_H = R_WH.topLeftCorner<2, 2>().transpose() * v_W;
+  const double vx = model_.dof(ub_x_).max_speed, vy = model_.dof(ub_y_).max_speed;
+  const double scale = std::min({1.0, vx / std::max(std::abs(v_H.x()), 1e-300), vy / std::max(std::abs(v_H.y()), 1e-300)});
+  if (scale < 1.0) flags |= kShiftSaturated;
+  v_H *= scale;
+  command.external_velocity[ub_x_] = v_H.x();
+  command.external_velocity[ub_y_] = v_H.y();
+  return flags;
+}
+
+}  // namespace wbm
