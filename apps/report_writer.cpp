@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "runner.hpp"
+#include "wbm/balance.hpp"
 #include "wbm/errors.hpp"
 
 namespace wbm {
@@ -96,7 +97,23 @@ std::string render_report(const ScenarioRun& run) {
     targets.push_back({{"name", t.name + " (" + t.type + ")"}, {"kind", t.type}, {"frame", index}, {"values", target_values[e]}});
   }
   data["targets"] = targets;
-  if (model.virtual_dofs().heel_body >= 0) data["paths"] = json::array({{{"name", "heel"}, {"points", heel_path}}});
+  json paths = json::array();
+  if (model.virtual_dofs().heel_body >= 0) paths.push_back({{"name", run.walking.empty() ? "heel" : "floating heel"}, {"points", heel_path}});
+  if (!run.walking.empty()) {
+    json real = json::array();
+    for (int k : samples) real.push_back(json::array({run.walking[k][0], run.walking[k][1], 0.0}));
+    paths.push_back({{"name", "real heel (between the feet)"}, {"points", real}});
+    json prints = json::array();
+    FootGeometry feet;
+    for (const Footstep& f : run.footsteps) {
+      const SupportPolygon one = SupportPolygon::from_feet({f.pose}, feet);
+      json poly = json::array();
+      for (const Vector2& v : one.vertices()) poly.push_back(json::array({v.x(), v.y()}));
+      prints.push_back({{"t", f.time}, {"side", f.left ? "L" : "R"}, {"polygon", poly}});
+    }
+    data["footprints"] = prints;
+  }
+  data["paths"] = paths;
 
   auto series = [&](const std::string& label, auto&& value) {
     json values = json::array();
@@ -139,6 +156,17 @@ std::string render_report(const ScenarioRun& run) {
   }
   if (!cond.empty())
     plots.push_back({{"title", "Condition number of the weighted position Jacobian"}, {"unit", ""}, {"series", cond}});
+  if (!run.walking.empty()) {
+    plots.push_back({{"title", "Walking: floating heel (solver) and real heel (feet)"},
+                     {"unit", "m, rad"},
+                     {"series", json::array({series("floating heel x", [&](int k) { return run.q[k][model.virtual_dofs().heel_x]; }),
+                                             series("floating heel y", [&](int k) { return run.q[k][model.virtual_dofs().heel_y]; }),
+                                             series("floating heel yaw", [&](int k) { return run.q[k][model.virtual_dofs().heel_yaw]; }),
+                                             series("real heel x", [&](int k) { return run.walking[k][0]; }),
+                                             series("real heel y", [&](int k) { return run.walking[k][1]; }),
+                                             series("real heel yaw", [&](int k) { return run.walking[k][2]; }),
+                                             series("walking", [&](int k) { return run.walking[k][3]; })})}});
+  }
   if (!run.balance.empty()) {
     plots.push_back({{"title", "Balance: centre of mass and support centre (world x, y)"},
                      {"unit", "m"},

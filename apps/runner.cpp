@@ -186,15 +186,21 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
   bool balance_on = s.balance.enabled;
   bool balance_needed = s.balance.enabled;
   for (const ScenarioEvent& ev : s.events) balance_needed |= ev.balance == 1;
-  SupportPolygon support;
-  if (balance_needed) {
-    balance = std::make_unique<BalanceModule>(model, std::make_unique<CenterOfMassCentering>(s.balance.gain, s.balance.margin));
-    const Data& d = c.data();
-    const Matrix3& R = d.X_WB[model.virtual_dofs().heel_body].R;
-    support = SupportPolygon::standing(d.X_WB[model.virtual_dofs().heel_body].p.head<2>(), std::atan2(R(1, 0), R(0, 0)),
-                                       balance->feet());
-  }
+  const FootGeometry feet;
+  if (balance_needed)
+    balance = std::make_unique<BalanceModule>(model, std::make_unique<CenterOfMassCentering>(s.balance.gain, s.balance.margin),
+                                              feet);
+  std::unique_ptr<WalkingModule> walking;
+  if (s.walking.enabled) walking = std::make_unique<WalkingModule>(model, feet, s.walking.parameters);
+  auto current_support = [&]() {
+    if (walking) return walking->support();
+    const VirtualDofs& v = model.virtual_dofs();
+    return SupportPolygon::standing(Vector2(c.q()[v.heel_x], c.q()[v.heel_y]), c.q()[v.heel_yaw], feet);
+  };
+  SupportPolygon support = balance || walking ? current_support() : SupportPolygon();
   cmd.compensate_external = s.balance.compensate;
+  ControllerStatus last_status;
+  std::uint32_t walking_flags = 0;
 
   const int steps = static_cast<int>(std::lround(s.duration / s.dt));
   const int n_el = stack.num_elements();
@@ -220,6 +226,12 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
     run->cost.push_back(c.nullspace_cost());
     run->cycle_us.push_back(us);
     run->min_singular_value.push_back(c.solver().output().min_singular_value);
+    if (balance || walking) run->support.push_back(support);
+    if (walking) {
+      const FootPose h = walking->real_heel();
+      run->walking.push_back((Eigen::VectorXd(5) << h.position.x(), h.position.y(), h.yaw, walking->walking() ? 1.0 : 0.0,
+                              static_cast<double>(walking_flags)).finished());
+    }
     if (balance) {
       Eigen::VectorXd b(7);
       const Vector2 com = c.data().p_WCm.head<2>();
@@ -235,6 +247,7 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
     const double t_start = (k - 1) * s.dt;
     while (next_event < s.events.size() && s.events[next_event].time <= t_start + 1e-12) {
       const Resolved& r = events[next_event];
+      if (walking && (!r.targets.empty() || !r.relative.empty())) walking->target_changed();
       for (const auto& [e, v] : r.targets) cmd.targets.segment(stack.target_offset(e), v.size()) = v;
       for (const auto& [e, v] : r.relative)
         cmd.targets.segment(stack.target_offset(e), v.size()) = c.values().segment(stack.target_offset(e), v.size()) + v;
@@ -248,13 +261,21 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
       }
       ++next_event;
     }
+    if (walking) {
+      walking_flags = walking->update(c, last_status, t_start, s.dt, cmd);
+      support = walking->support();
+    } else if (balance) {
+      support = current_support();
+    }
     if (balance && balance_on) balance->update(c.data(), support, s.dt, cmd);
     const auto t0 = std::chrono::steady_clock::now();
     const ControllerStatus st = c.update(cmd, s.dt);
+    last_status = st;
     const auto t1 = std::chrono::steady_clock::now();
     record(k * s.dt, st.flags, std::chrono::duration<double, std::micro>(t1 - t0).count());
     if (tty && (k % 200 == 0 || k == steps)) progress_bar(k * s.dt, s.duration, k == steps);
   }
+  if (walking) run->footsteps = walking->footsteps();
   return run;
 }
 
@@ -337,6 +358,19 @@ json summarize(const ScenarioRun& run) {
     counts[name] = count;
   }
   out["status_cycles"] = counts;
+  if (!run.walking.empty()) {
+    int walks = 0;
+    for (size_t k = 1; k < run.walking.size(); ++k) walks += (run.walking[k][3] > 0.0 && run.walking[k - 1][3] == 0.0) ? 1 : 0;
+    const Eigen::VectorXd& h = run.walking.back();
+    out["walking"] = {{"walks", walks}, {"footsteps", run.footsteps.size()},
+                      {"final_real_heel", {h[0], h[1], h[2]}},
+                      {"walking_at_end", h[3] > 0.0}};
+  }
+  if (!run.balance.empty()) {
+    double min_margin = 1e300;
+    for (const Eigen::VectorXd& b : run.balance) min_margin = std::min(min_margin, b[6]);
+    out["balance"] = {{"min_com_margin", min_margin}, {"final_com_margin", run.balance.back()[6]}};
+  }
   out["nullspace_cost"] = {{"initial", run.cost.front()}, {"final", run.cost.back()},
                            {"max", *std::max_element(run.cost.begin(), run.cost.end())}};
   return out;
@@ -373,6 +407,14 @@ void write_outputs(const ScenarioRun& run, const std::string& directory, bool re
   }
   files["trajectory.csv"] = csv.str();
   files["summary.json"] = summarize(run).dump(2) + "\n";
+  if (s.walking.enabled) {
+    std::ostringstream steps;
+    steps << std::setprecision(10) << "time,foot,x,y,yaw\n";
+    for (const Footstep& f : run.footsteps)
+      steps << f.time << "," << (f.left ? "L" : "R") << "," << f.pose.position.x() << "," << f.pose.position.y() << ","
+            << f.pose.yaw << "\n";
+    files["footsteps.csv"] = steps.str();
+  }
   if (report) files["report.html"] = render_report(run);
   // Write everything to temporaries first, then rename: a failure leaves no partial output.
   for (const auto& [name, text] : files) {

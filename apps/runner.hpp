@@ -10,7 +10,9 @@
 #include <nlohmann/json.hpp>
 
 #include "scenario.hpp"
+#include "wbm/balance.hpp"
 #include "wbm/controller.hpp"
+#include "wbm/walking.hpp"
 
 namespace wbm {
 
@@ -27,7 +29,10 @@ struct ScenarioRun {
   std::vector<Eigen::VectorXd> active;                       ///< per element 0/1
   std::vector<std::uint32_t> flags;
   std::vector<double> cost, cycle_us, min_singular_value;
-  std::vector<Eigen::VectorXd> balance;                      ///< com_x, com_y, support centre x, y, ub shift x, y (when balance runs)
+  std::vector<Eigen::VectorXd> balance;  ///< com x, y, support centroid x, y, ub shift x, y, com margin (balance on)
+  std::vector<Eigen::VectorXd> walking;  ///< real heel x, y, yaw, walking 0/1, walking flags (walking on)
+  std::vector<Footstep> footsteps;
+  std::vector<SupportPolygon> support;   ///< per cycle when balance or walking runs (empty otherwise)
 
   int num_cycles() const { return static_cast<int>(time.size()); }
   int element(const std::string& name) const { return controller->tasks().element_index(name); }

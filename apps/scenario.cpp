@@ -129,7 +129,7 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
   s.source = source;
   if (!root.IsMap()) throw ConfigError(source + ":1: expected a mapping with name, robot, tasks, timeline, ...");
   r.only(root, "", {"name", "description", "robot", "dt", "duration", "record_every", "solver", "criterion", "initial",
-                    "frozen", "tasks", "timeline", "balance"});
+                    "frozen", "tasks", "timeline", "balance", "walking"});
   if (!root["name"]) throw ConfigError(source + ":1: name: missing (expected a scenario name)");
   s.name = r.text(root["name"], "name");
   if (root["description"]) s.description = r.text(root["description"], "description");
@@ -180,6 +180,23 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
     if (balance["compensate"]) s.balance.compensate = r.boolean(balance["compensate"], "balance.compensate");
     if (balance["gain"]) s.balance.gain = r.positive(balance["gain"], "balance.gain");
     if (balance["margin"]) s.balance.margin = r.number(balance["margin"], "balance.margin");
+  }
+  if (const YAML::Node walking = root["walking"]) {
+    WalkingParameters& w = s.walking.parameters;
+    r.only(walking, "walking", {"enabled", "trigger_on_joint_limit", "cost_threshold", "stall_time", "error_tolerance",
+                                "max_step_length", "max_step_width", "min_step_width", "max_step_turn", "step_duration",
+                                "converged_speed", "converge_time", "feet_tolerance", "max_steps", "max_walks"});
+    if (walking["enabled"]) s.walking.enabled = r.boolean(walking["enabled"], "walking.enabled");
+    if (walking["trigger_on_joint_limit"]) w.trigger_on_joint_limit = r.boolean(walking["trigger_on_joint_limit"], "walking.trigger_on_joint_limit");
+    const std::vector<std::pair<const char*, double*>> numbers = {
+        {"cost_threshold", &w.cost_threshold}, {"stall_time", &w.stall_time}, {"error_tolerance", &w.error_tolerance},
+        {"max_step_length", &w.max_step_length}, {"max_step_width", &w.max_step_width},
+        {"min_step_width", &w.min_step_width}, {"max_step_turn", &w.max_step_turn}, {"step_duration", &w.step_duration},
+        {"converged_speed", &w.converged_speed}, {"converge_time", &w.converge_time}, {"feet_tolerance", &w.feet_tolerance}};
+    for (const auto& [key, slot] : numbers)
+      if (walking[key]) *slot = r.number(walking[key], std::string("walking.") + key);
+    if (walking["max_steps"]) w.max_steps = static_cast<int>(r.positive(walking["max_steps"], "walking.max_steps"));
+    if (walking["max_walks"]) w.max_walks = static_cast<int>(r.positive(walking["max_walks"], "walking.max_walks"));
   }
   const YAML::Node tasks = root["tasks"];
   if (!tasks || !tasks.IsSequence() || tasks.size() == 0)

@@ -11,6 +11,7 @@
 
 #include "wbm/controller.hpp"
 #include "wbm/urdf_import.hpp"
+#include "wbm/walking.hpp"
 
 namespace wbm {
 
@@ -49,6 +50,11 @@ struct BalanceSettings {
   double margin = 0.0;     ///< [m]
 };
 
+struct WalkingSettings {
+  bool enabled = false;
+  WalkingParameters parameters;
+};
+
 struct Scenario {
   std::string name;
   std::string description;
@@ -66,6 +72,7 @@ struct Scenario {
   std::vector<ScenarioTask> tasks;
   std::vector<ScenarioEvent> events;                    ///< sorted by time
   BalanceSettings balance;
+  WalkingSettings walking;
 };
 
 /// @throws ConfigError "FILE:LINE: field: what was expected" for any bad entry.

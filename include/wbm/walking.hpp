@@ -1,0 +1,97 @@
+#pragma once
+/// @file
+/// Walking by a floating heel (section VI): a trigger decides when reaching needs walking;
+/// then the heel dofs are released so the heel frame floats to the pose that is optimal for
+/// the null-space criterion while the hands keep tracking, and a step generator walks the
+/// feet to it. When the floating heel has converged and the feet are there, the heel is
+/// frozen again. Like balance, it talks to the solver only through b_C.
+
+#include <cstdint>
+#include <vector>
+
+#include "wbm/balance.hpp"
+#include "wbm/controller.hpp"
+
+namespace wbm {
+
+struct WalkingParameters {
+  // Trigger (section VI: "the violation of a joint limit, reaching a threshold in the null
+  // space cost function"); any of them, held for trigger_time, starts walking.
+  bool trigger_on_joint_limit = true;   ///< a dof clamped or frozen at its limit
+  double cost_threshold = 0.6;          ///< null-space cost H above this; <= 0: off
+  double stall_time = 0.6;              ///< [s] task error not decreasing by 1 %; <= 0: off
+  double error_tolerance = 0.005;       ///< [m or rad] errors below this never trigger
+  double trigger_time = 0.05;           ///< [s]
+  // Step generator: limits relative to the support foot and the step duration.
+  double max_step_length = 0.25;  ///< [m] forward (backward: half of it)
+  double max_step_width = 0.30;   ///< [m] lateral distance between the feet, at most
+  double min_step_width = 0.14;   ///< [m] at least
+  double max_step_turn = 0.35;    ///< [rad]
+  double step_duration = 0.6;     ///< [s]
+  // Convergence: heel dof speeds below this for converge_time, feet within the tolerance.
+  double converged_speed = 0.01;    ///< [m/s] and [rad/s]
+  double converge_time = 0.3;       ///< [s]
+  double feet_tolerance = 0.02;     ///< [m]; angles: feet_tolerance [rad] * 2
+  int max_steps = 60;               ///< per walk: no endless stepping
+  int max_walks = 3;                ///< walks per target without progress before giving up
+};
+
+enum WalkingFlag : std::uint32_t {
+  kWalkStanding = 0,
+  kWalkTriggered = 1u << 0,   ///< Walking started this cycle.
+  kWalking = 1u << 1,         ///< Heel released, stepping.
+  kWalkFinished = 1u << 2,    ///< Heel frozen again this cycle.
+  kStepLimitReached = 1u << 3,///< Walk ended by max_steps.
+  kWalkGivenUp = 1u << 4,     ///< max_walks walks without progress: no more walking until the command changes.
+};
+
+struct Footstep {
+  double time = 0.0;  ///< landing time [s]
+  bool left = true;
+  FootPose pose;
+};
+
+class WalkingModule {
+ public:
+  /// @throws ConfigError if the model has no heel dofs or parameters are invalid.
+  WalkingModule(const Model& model, const FootGeometry& feet, const WalkingParameters& parameters = {});
+
+  /// Call once per cycle before Controller::update with the status of the previous cycle.
+  /// Writes b_C of the heel dofs. `time` is the simulation time [s].
+  std::uint32_t update(const Controller& controller, const ControllerStatus& last, double time, double dt,
+                       Command& command);
+  /// The command's targets changed: walking may be triggered again.
+  void target_changed();
+
+  bool walking() const { return walking_; }
+  const std::vector<Footstep>& footsteps() const { return footsteps_; }
+  FootPose left_foot() const { return left_; }
+  FootPose right_foot() const { return right_; }
+  /// The real heel: between the feet.
+  FootPose real_heel() const;
+  /// Support polygon of the feet (both feet; during a step the swing foot is on its way).
+  SupportPolygon support() const;
+
+ private:
+  FootPose stance_target(bool left, const Vector2& heel, double yaw) const;
+  FootPose limited_step(bool left, const FootPose& support, const FootPose& target) const;
+  void set_heel_free(Command& command, bool free) const;
+  bool feet_at(const Vector2& heel, double yaw) const;
+
+  const Model& model_;
+  FootGeometry feet_;
+  WalkingParameters p_;
+  int heel_dofs_[3];
+  bool walking_ = false;
+  bool given_up_ = false;
+  int walks_without_progress_ = 0;
+  int steps_this_walk_ = 0;
+  double trigger_timer_ = 0.0, converge_timer_ = 0.0, stall_timer_ = 0.0, best_error_ = 1e300;
+  double step_timer_ = 0.0;
+  bool next_left_ = true;
+  Vector2 walk_start_heel_ = Vector2::Zero();
+  FootPose left_, right_;
+  std::vector<Footstep> footsteps_;
+};
+
+}  // namespace wbm

@@ -1,0 +1,162 @@
+#include "wbm/walking.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "wbm/errors.hpp"
+
+namespace wbm {
+namespace {
+
+double wrap(double a) { return std::remainder(a, 2.0 * M_PI); }
+
+}  // namespace
+
+WalkingModule::WalkingModule(const Model& model, const FootGeometry& feet, const WalkingParameters& p)
+    : model_(model), feet_(feet), p_(p) {
+  const VirtualDofs& v = model.virtual_dofs();
+  heel_dofs_[0] = v.heel_x;
+  heel_dofs_[1] = v.heel_y;
+  heel_dofs_[2] = v.heel_yaw;
+  if (v.heel_x < 0 || v.heel_y < 0 || v.heel_yaw < 0)
+    throw ConfigError("walking: model '" + model.name() + "' has no virtual heel dofs");
+  if (!(p.max_step_length > 0 && p.max_step_width > p.min_step_width && p.min_step_width >= 0 && p.max_step_turn > 0 &&
+        p.step_duration > 0 && p.converged_speed > 0 && p.converge_time >= 0 && p.feet_tolerance > 0 && p.max_steps > 0 &&
+        p.max_walks > 0 && p.trigger_time >= 0))
+    throw ConfigError("walking: step limits, durations, tolerances and counts must be positive "
+                      "(and max_step_width > min_step_width)");
+  const Vector2 heel(model.home()[v.heel_x], model.home()[v.heel_y]);
+  left_ = stance_target(true, heel, model.home()[v.heel_yaw]);
+  right_ = stance_target(false, heel, model.home()[v.heel_yaw]);
+}
+
+FootPose WalkingModule::stance_target(bool left, const Vector2& heel, double yaw) const {
+  const Eigen::Rotation2Dd R(yaw);
+  return {heel + R * Vector2(0.0, (left ? 0.5 : -0.5) * feet_.spacing), yaw};
+}
+
+FootPose WalkingModule::real_heel() const {
+  const double yaw = left_.yaw + 0.5 * wrap(right_.yaw - left_.yaw);
+  return {0.5 * (left_.position + right_.position), yaw};
+}
+
+SupportPolygon WalkingModule::support() const { return SupportPolygon::from_feet({left_, right_}, feet_); }
+
+void WalkingModule::target_changed() {
+  given_up_ = false;
+  walks_without_progress_ = 0;
+  best_error_ = 1e300;
+  stall_timer_ = 0.0;
+}
+
+void WalkingModule::set_heel_free(Command& command, bool free) const {
+  for (int d : heel_dofs_) command.free_dofs[d] = free;
+}
+
+bool WalkingModule::feet_at(const Vector2& heel, double yaw) const {
+  const FootPose l = stance_target(true, heel, yaw), r = stance_target(false, heel, yaw);
+  const double tol = p_.feet_tolerance;
+  return (l.position - left_.position).norm() < tol && (r.position - right_.position).norm() < tol &&
+         std::abs(wrap(l.yaw - left_.yaw)) < 2 * tol && std::abs(wrap(r.yaw - right_.yaw)) < 2 * tol;
+}
+
+FootPose WalkingModule::limited_step(bool left, const FootPose& support, const FootPose& target) const {
+  // The target in the support foot's frame, clamped to the step limits.
+  const Eigen::Rotation2Dd R(support.yaw);
+  Vector2 d = R.inverse() * (target.position - support.position);
+  d.x() = std::clamp(d.x(), -0.5 * p_.max_step_length, p_.max_step_length);
+  const double side = left ? 1.0 : -1.0;
+  d.y() = side * std::clamp(side * d.y(), p_.min_step_width, p_.max_step_width);
+  const double turn = std::clamp(wrap(target.yaw - support.yaw), -p_.max_step_turn, p_.max_step_turn);
+  return {support.position + R * d, support.yaw + turn};
+}
+
+std::uint32_t WalkingModule::update(const Controller& c, const ControllerStatus& last, double time, double dt,
+                                    Command& command) {
+  std::uint32_t flags = kWalkStanding;
+  const Eigen::VectorXd& q = c.q();
+  const Vector2 heel(q[heel_dofs_[0]], q[heel_dofs_[1]]);
+  const double yaw = q[heel_dofs_[2]];
+  double error = 0.0;
+  const TaskStack& stack = c.tasks();
+  const Mask& active = command.task_active;
+  for (int r = 0; r < stack.num_rows(); ++r)
+    if (active[r] && stack.activation()[r]) error = std::max(error, std::abs(stack.errors()[r]));
+  // The stack's errors are to the filtered targets; the distance still to go is what
+  // matters for the stall test, so use the largest distance to the commanded targets too.
+  const Eigen::VectorXd& values = c.values();
+  for (int e = 0; e < stack.num_elements(); ++e) {
+    if (stack.element(e).target_kind() != TargetKind::kVector) continue;
+    const int t0 = stack.target_offset(e), n = stack.element(e).target_dim();
+    const int r0 = stack.row_offset(e);
+    for (int i = 0; i < n && i < stack.element(e).dim(); ++i)
+      if (active[r0 + i]) error = std::max(error, std::abs(command.targets[t0 + i] - values[t0 + i]));
+  }
+
+  if (!walking_) {
+    set_heel_free(command, false);
+    if (given_up_) return flags | kWalkGivenUp;
+    const bool limit = p_.trigger_on_joint_limit && last.has(kJointLimitClamped | kDofAtLimitFrozen);
+    const bool cost = p_.cost_threshold > 0.0 && c.nullspace_cost() > p_.cost_threshold;
+    // Stalled: the error has not fallen by 1 % for stall_time. A growing error (a target
+    // moving away) is not a stall; it restarts the measurement.
+    if (error < best_error_ * 0.99 || error > best_error_) {
+      best_error_ = error;
+      stall_timer_ = 0.0;
+    } else {
+      stall_timer_ += dt;
+    }
+    const bool stall = p_.stall_time > 0.0 && stall_timer_ > p_.stall_time;
+    const bool wanted = error > p_.error_tolerance && (limit || cost || stall);
+    trigger_timer_ = wanted ? trigger_timer_ + dt : 0.0;
+    if (trigger_timer_ < p_.trigger_time || trigger_timer_ == 0.0) return flags;
+    walking_ = true;
+    steps_this_walk_ = 0;
+    converge_timer_ = 0.0;
+    step_timer_ = 0.0;
+    trigger_timer_ = 0.0;
+    walk_start_heel_ = heel;
+    flags |= kWalkTriggered;
+  }
+
+  flags |= kWalking;
+  set_heel_free(command, true);
+  // Step generator: every step_duration the swing foot lands at the limited step towards
+  // its place beside the floating heel; the feet alternate.
+  step_timer_ += dt;
+  if (step_timer_ >= p_.step_duration) {
+    step_timer_ = 0.0;
+    const FootPose& support = next_left_ ? right_ : left_;
+    FootPose& swing = next_left_ ? left_ : right_;
+    const FootPose target = stance_target(next_left_, heel, yaw);
+    const bool needed = (target.position - swing.position).norm() >= p_.feet_tolerance ||
+                        std::abs(wrap(target.yaw - swing.yaw)) >= 2 * p_.feet_tolerance ||
+                        !feet_at(heel, yaw);
+    if (needed) {
+      swing = limited_step(next_left_, support, target);
+      footsteps_.push_back({time, next_left_, swing});
+      ++steps_this_walk_;
+      next_left_ = !next_left_;
+    }
+  }
+  double heel_speed = 0.0;
+  for (int d : heel_dofs_) heel_speed = std::max(heel_speed, std::abs(c.qdot()[d]));
+  converge_timer_ = heel_speed < p_.converged_speed ? converge_timer_ + dt : 0.0;
+  const bool done = converge_timer_ >= p_.converge_time && feet_at(heel, yaw);
+  const bool too_many = steps_this_walk_ >= p_.max_steps;
+  if (done || too_many) {
+    walking_ = false;
+    set_heel_free(command, false);
+    flags |= kWalkFinished;
+    if (too_many) flags |= kStepLimitReached;
+    // No progress: the heel hardly moved. After max_walks of those, stop trying.
+    walks_without_progress_ = (heel - walk_start_heel_).norm() < p_.feet_tolerance ? walks_without_progress_ + 1 : 0;
+    if (too_many) walks_without_progress_ = p_.max_walks;
+    if (walks_without_progress_ >= p_.max_walks) given_up_ = true;
+    best_error_ = 1e300;
+    stall_timer_ = 0.0;
+  }
+  return flags;
+}
+
+}  // namespace wbm
