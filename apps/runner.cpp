@@ -184,7 +184,7 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
 
   std::unique_ptr<BalanceModule> balance;
   bool balance_on = s.balance.enabled;
-  bool balance_needed = s.balance.enabled;
+  bool balance_needed = s.balance.configured;
   for (const ScenarioEvent& ev : s.events) balance_needed |= ev.balance == 1;
   const FootGeometry feet;
   if (balance_needed)

@@ -176,6 +176,7 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
   if (root["frozen"]) s.frozen = r.strings(root["frozen"], "frozen");
   if (const YAML::Node balance = root["balance"]) {
     r.only(balance, "balance", {"enabled", "compensate", "gain", "margin"});
+    s.balance.configured = true;
     if (balance["enabled"]) s.balance.enabled = r.boolean(balance["enabled"], "balance.enabled");
     if (balance["compensate"]) s.balance.compensate = r.boolean(balance["compensate"], "balance.compensate");
     if (balance["gain"]) s.balance.gain = r.positive(balance["gain"], "balance.gain");

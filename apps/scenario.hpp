@@ -44,6 +44,7 @@ struct ScenarioEvent {
 };
 
 struct BalanceSettings {
+  bool configured = false;  ///< the scenario has a balance section (record the com margin)
   bool enabled = false;
   bool compensate = true;  ///< feed x_bal into the solver (eq. 21)
   double gain = 5.0;       ///< [1/s]

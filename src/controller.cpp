@@ -1,5 +1,6 @@
 #include "wbm/controller.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "wbm/errors.hpp"
@@ -46,6 +47,7 @@ void Controller::reset(const Eigen::VectorXd& q) {
   q_ = q;
   q_next_ = q;
   q_total_.setZero(model_.num_dofs());
+  external_.setZero(model_.num_dofs());
   qdot_.setZero();
   values_.setZero(stack_.num_targets());
   update_kinematics();
@@ -114,9 +116,16 @@ ControllerStatus Controller::update(const Command& command, double dt) {
   }
   was_row_active_ = stack_.activation();
   const int m = stack_.assemble(model_, data_);
+  // The external velocity as it will be realised: a dof at a limit does not move further.
   const bool external = command.external_velocity.size() != 0;
+  if (external)
+    for (int i = 0; i < model_.num_dofs(); ++i) {
+      const double v = command.external_velocity[i];
+      external_[i] = v == 0.0 ? 0.0
+                              : (std::clamp(q_[i] + v * dt, model_.lower_limits()[i], model_.upper_limits()[i]) - q_[i]) / dt;
+    }
   if (external && command.compensate_external && m > 0)
-    stack_.task_velocity().noalias() -= stack_.jacobian() * command.external_velocity;
+    stack_.task_velocity().noalias() -= stack_.jacobian() * external_;
   criterion_->gradient(q_, gradient_);
   free_ = command.free_dofs;
   SolverStatus solved;
@@ -142,7 +151,7 @@ ControllerStatus Controller::update(const Command& command, double dt) {
     return status;
   }
   q_total_ = solver_->output().qdot;
-  if (external) q_total_ += command.external_velocity;
+  if (external) q_total_ += external_;
   status.flags |= integrate(model_, q_, q_total_, dt, q_next_);
   qdot_ = (q_next_ - q_) / dt;
   q_ = q_next_;

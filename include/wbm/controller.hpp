@@ -103,7 +103,8 @@ class Controller {
   SolverParameters solver_parameters_;
   std::unique_ptr<WholeBodySolver> solver_;  // sized in reset() for the final task rows
   Eigen::VectorXd q_, qdot_, q_next_, gradient_, values_, previous_values_, value_rates_;
-  Eigen::VectorXd q_total_;  // solver output plus external velocities
+  Eigen::VectorXd q_total_;   // solver output plus external velocities
+  Eigen::VectorXd external_;  // external velocities as realised within the limits
   Mask was_active_, was_row_active_;
   Mask free_;  // b_C with dofs frozen at their limits
   Eigen::VectorXd commanded_;  // last valid target per element
