@@ -24,9 +24,16 @@ void check_inertial(const std::string& what, const Inertial& in) {
 }  // namespace
 
 Vector3 rpy_from_rotation(const Matrix3& R) {
-  const double pitch = std::atan2(-R(2, 0), std::hypot(R(0, 0), R(1, 0)));
-  const double roll = std::atan2(R(2, 1), R(2, 2));
+  // R = Rz(yaw) Ry(pitch) Rx(roll). Take yaw from the first column, then roll and pitch
+  // from Rz(yaw)^T R = Ry(pitch) Rx(roll). At pitch = +-pi/2 (gimbal lock) the first
+  // column's x and y are rounding noise and yaw is arbitrary, but roll computed this way
+  // still matches it, so the angles always reproduce R (atan2(R21, R22) for roll would
+  // divide noise by noise there).
   const double yaw = std::atan2(R(1, 0), R(0, 0));
+  const double c = std::cos(yaw);
+  const double s = std::sin(yaw);
+  const double pitch = std::atan2(-R(2, 0), c * R(0, 0) + s * R(1, 0));
+  const double roll = std::atan2(s * R(0, 2) - c * R(1, 2), c * R(1, 1) - s * R(0, 1));
   return {roll, pitch, yaw};
 }
 
@@ -208,13 +215,15 @@ std::array<Dof, 9> default_virtual_dofs(double height) {
   // Ranges of the virtual dofs are not given by the paper (see ERRATA.md). The heel may
   // slide anywhere on a 20 m x 20 m floor and turn freely (it is frozen by b_C while
   // standing); its work range (1 m) only sets its weight in W. The upper-body ranges
-  // approximate what a humanoid's legs allow: 8 cm sideways/forward shift, crouching by
+  // approximate what a humanoid's legs allow: 8 cm sideways shift, forward shift from 2 cm
+  // behind to 14 cm ahead of the heel edge (centre 6 cm: about above the ankles, so that the
+  // centre of mass starts over the middle of the feet), crouching by
   // 20 % of the standing height, and moderate trunk tilts.
   std::array<Dof, 9> d;
   d[0] = {"heel_x", JointType::kPrismatic, DofRole::kHeelX, false, -10.0, 10.0, 0.5, 1.0};
   d[1] = {"heel_y", JointType::kPrismatic, DofRole::kHeelY, false, -10.0, 10.0, 0.5, 1.0};
   d[2] = {"heel_yaw", JointType::kRevolute, DofRole::kHeelYaw, true, -pi, pi, 0.8, 2.0 * pi};
-  d[3] = {"upper_body_x", JointType::kPrismatic, DofRole::kUpperBodyX, false, -0.08, 0.08, 0.3, 0.0};
+  d[3] = {"upper_body_x", JointType::kPrismatic, DofRole::kUpperBodyX, false, -0.02, 0.14, 0.3, 0.0};
   d[4] = {"upper_body_y", JointType::kPrismatic, DofRole::kUpperBodyY, false, -0.08, 0.08, 0.3, 0.0};
   d[5] = {"upper_body_z", JointType::kPrismatic, DofRole::kUpperBodyZ, false, 0.8 * height, height,
           0.3, 0.0};

@@ -54,6 +54,12 @@ std::string export_urdf(const Model& model) {
     out << "  <link name=\"" << body.name << "\">\n";
     write_inertial(out, body.inertial);
     out << "  </link>\n";
+    if (body.dof < 0) {  // welded to its parent
+      out << "  <joint name=\"" << body.name << "_joint\" type=\"fixed\">\n    <parent link=\""
+          << model.body(body.parent).name << "\"/>\n    <child link=\"" << body.name << "\"/>\n    "
+          << origin(body.X_PJ) << "\n  </joint>\n";
+      continue;
+    }
     const Dof& dof = model.dof(body.dof);
     // The first body a dof drives carries the dof's name; later ones are mimic joints.
     const bool primary = !driven[body.dof];

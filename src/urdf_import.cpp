@@ -308,7 +308,7 @@ class TreeBuilder {
     BodySpec spec;
     spec.body.name = root;
     specs_.push_back(spec);
-    visit(root, 0, Transform::Identity(), nullptr, Mode::kNormal);
+    visit(root, 0, Transform::Identity(), Transform::Identity(), nullptr, Mode::kNormal);
   }
 
   std::vector<BodySpec> specs_;
@@ -318,14 +318,17 @@ class TreeBuilder {
  private:
   enum class Mode { kNormal, kLocked, kDropped };
 
-  void visit(const std::string& link_name, int body, const Transform& X_BL, const JointInfo* from, Mode mode) {
+  /// X_BL: pose of the link in its body; X_RL: pose of the link in the root link at zero
+  /// joint values (for the root height, also when legs hang below reversed joints).
+  void visit(const std::string& link_name, int body, const Transform& X_BL, const Transform& X_RL,
+             const JointInfo* from, Mode mode) {
     const urdf::Link& link = *urdf_.links_.at(link_name);
     if (mode != Mode::kDropped) {
       if (!(specs_[body].body.name == link_name && X_BL.p.isZero() && X_BL.R.isIdentity()))
         frames_.push_back({link_name, body, X_BL});
       merge_inertial(specs_[body].body.inertial, link_inertial(link, X_BL));
     }
-    if (mode != Mode::kNormal && body == 0) lowest_leg_z_ = std::min(lowest_leg_z_, X_BL.p.z());
+    if (mode != Mode::kNormal) lowest_leg_z_ = std::min(lowest_leg_z_, X_RL.p.z());
     for (const JointInfo* info : neighbours_.at(link_name)) {
       if (info == from) continue;
       const urdf::Joint& joint = *urdf_.joints_.at(info->name);
@@ -336,11 +339,12 @@ class TreeBuilder {
       if (mode == Mode::kNormal && legs_.count(other))
         child_mode = options_.leg_mode == LegMode::kDrop ? Mode::kDropped : Mode::kLocked;
       const Transform X_PC0 = to_transform(joint.parent_to_joint_origin_transform);
+      // At joint value 0 (mimic joints at their offset).
+      const Transform X_PC = X_PC0 * joint_motion(joint, joint.mimic ? joint.mimic->offset : 0.0);
+      const Transform X_RO = X_RL * (forward ? X_PC : X_PC.inverse());
       if (joint.type == urdf::Joint::FIXED || child_mode != Mode::kNormal) {
-        // Welded: fixed joint or locked leg at joint value 0 (mimic joints at their offset).
-        const double value = joint.mimic ? joint.mimic->offset : 0.0;
-        const Transform X_PC = X_PC0 * joint_motion(joint, value);
-        visit(other, body, X_BL * (forward ? X_PC : X_PC.inverse()), info, child_mode);
+        // Welded: fixed joint or locked leg at joint value 0.
+        visit(other, body, X_BL * (forward ? X_PC : X_PC.inverse()), X_RO, info, child_mode);
         continue;
       }
       BodySpec spec;
@@ -362,7 +366,7 @@ class TreeBuilder {
         X_BO = X_PC0.inverse();
       }
       specs_.push_back(spec);
-      visit(other, static_cast<int>(specs_.size()) - 1, X_BO, info, Mode::kNormal);
+      visit(other, static_cast<int>(specs_.size()) - 1, X_BO, X_RO, info, Mode::kNormal);
     }
   }
 
