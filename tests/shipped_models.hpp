@@ -1,0 +1,50 @@
+#pragma once
+/// @file
+/// The robot models shipped with wbm, with the import options they need: the built-in
+/// paper model and every URDF under models/third_party/. Shared by tests and benchmarks.
+
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "wbm/model.hpp"
+#include "wbm/urdf_import.hpp"
+
+#ifndef WBM_SOURCE_DIR
+#error "WBM_SOURCE_DIR must be defined (the wbm source tree, set in tests/CMakeLists.txt)"
+#endif
+
+namespace wbm_test {
+
+struct ShippedModel {
+  /// Identifier usable in test names (letters, digits, underscores).
+  std::string id;
+  /// Absolute path of the URDF file; empty for the built-in paper model.
+  std::string path;
+  /// Import options (root, legs, default limits) this file needs.
+  wbm::UrdfImportOptions options;
+  /// Natural hand frames (a palm/gripper point where the file has one, else the last arm
+  /// link) and the head/gaze frame (camera or gaze frame; empty if none).
+  std::string left_hand, right_hand, head;
+  /// Joints driven through <mimic> (the model covers mimic coupling).
+  bool has_mimic = false;
+
+  bool is_urdf() const { return !path.empty(); }
+  /// Builds the model (make_paper_model() or load_urdf(path, options)).
+  wbm::Model load() const;
+};
+
+/// gtest prints parameters with this (instead of a byte dump).
+inline void PrintTo(const ShippedModel& m, std::ostream* os) { *os << m.id; }
+
+/// All shipped models: the paper model first, then the URDFs.
+const std::vector<ShippedModel>& shipped_models();
+/// Only the URDF entries.
+std::vector<ShippedModel> shipped_urdf_models();
+/// The entry with this id; throws std::out_of_range if there is none.
+const ShippedModel& shipped_model(const std::string& id);
+
+/// Absolute path of a file in the source tree, e.g. source_path("tests/data/x.urdf").
+inline std::string source_path(const std::string& relative) { return std::string(WBM_SOURCE_DIR) + "/" + relative; }
+
+}  // namespace wbm_test

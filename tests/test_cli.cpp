@@ -1,0 +1,179 @@
+// The wbm command-line tool: runs it through the shell and parses its JSON output.
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "shipped_models.hpp"
+#include "wbm/kinematics.hpp"
+#include "wbm/paper_model.hpp"
+
+#ifndef WBM_CLI_PATH
+#error "WBM_CLI_PATH must name the wbm command-line tool"
+#endif
+
+namespace {
+
+using nlohmann::json;
+
+struct CliRun {
+  int status = -1;
+  std::string out, err;
+};
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+/// Runs `wbm ARGS`; stdout is read through popen, stderr goes to a file.
+CliRun wbm_cli(const std::string& args) {
+  // Unique per process: CTest runs the test cases of this file in parallel.
+  const std::string err = testing::TempDir() + "wbm_cli_test_" + std::to_string(getpid()) + ".err";
+  const std::string command = std::string("'") + WBM_CLI_PATH + "' " + args + " 2>'" + err + "'";
+  CliRun r;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (pipe == nullptr) return r;
+  char buffer[4096];
+  size_t n;
+  while ((n = fread(buffer, 1, sizeof buffer, pipe)) > 0) r.out.append(buffer, n);
+  const int raw = pclose(pipe);
+  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  r.err = read_file(err);
+  std::remove(err.c_str());
+  return r;
+}
+
+json parse(const CliRun& r) {
+  EXPECT_EQ(r.status, 0) << r.err;
+  try {
+    return json::parse(r.out);
+  } catch (const json::exception& e) {
+    ADD_FAILURE() << "not JSON (" << e.what() << "):\n" << r.out.substr(0, 2000);
+    return json();
+  }
+}
+
+TEST(Cli, ModelInfoText) {
+  const CliRun r = wbm_cli("model info");
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("model paper_asimo_like: 21 dofs"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("l_hand_ref"), std::string::npos);
+}
+
+TEST(Cli, ModelInfoJson) {
+  const json j = parse(wbm_cli("model info --json"));
+  ASSERT_TRUE(j.is_object());
+  EXPECT_EQ(j["name"], "paper_asimo_like");
+  EXPECT_NEAR(j["total_mass"].get<double>(), 54.0, 1e-9);
+  ASSERT_EQ(j["dofs"].size(), 21u);
+  EXPECT_EQ(j["dofs"][0]["name"], "heel_x");
+  EXPECT_EQ(j["dofs"][2]["type"], "continuous");
+  EXPECT_TRUE(j["dofs"][2]["lower"].is_null());  // -inf is written as null
+  EXPECT_EQ(j["dofs"][20]["name"], "head_tilt");
+  bool hand = false;
+  for (const json& f : j["frames"]) hand |= f["name"] == "l_hand_ref";
+  EXPECT_TRUE(hand);
+}
+
+TEST(Cli, ModelFkWithJacobianMatchesTheLibrary) {
+  const json j = parse(wbm_cli("model fk --frames l_hand_ref --jacobian --json"));
+  const wbm::Model model = wbm::make_paper_model();
+  wbm::Data data(model);
+  wbm::forward_kinematics(model, data, model.home());
+  const int f = model.frame_index("l_hand_ref");
+  const wbm::Transform X = wbm::frame_pose(model, data, f);
+  Eigen::MatrixXd J(6, model.num_dofs());
+  wbm::frame_jacobian(model, data, f, J);
+
+  ASSERT_TRUE(j["frames"].contains("l_hand_ref"));
+  EXPECT_EQ(j["frames"].size(), 1u);
+  const json& hand = j["frames"]["l_hand_ref"];
+  for (int r = 0; r < 3; ++r) {
+    EXPECT_NEAR(hand["position"][r].get<double>(), X.p[r], 1e-12);
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(hand["rotation"][r][c].get<double>(), X.R(r, c), 1e-12);
+  }
+  ASSERT_EQ(hand["jacobian"].size(), 6u);
+  for (int r = 0; r < 6; ++r) {
+    ASSERT_EQ(hand["jacobian"][r].size(), 21u);
+    for (int c = 0; c < 21; ++c) EXPECT_NEAR(hand["jacobian"][r][c].get<double>(), J(r, c), 1e-12);
+  }
+  ASSERT_EQ(j["q"].size(), 21u);
+  EXPECT_EQ(j["center_of_mass"].size(), 3u);
+}
+
+TEST(Cli, ModelFkWithConfiguration) {
+  std::string q;
+  const wbm::Model model = wbm::make_paper_model();
+  for (int i = 0; i < model.num_dofs(); ++i) {
+    if (i > 0) q += ',';
+    q += std::to_string(model.home()[i]);
+  }
+  const json j = parse(wbm_cli("model fk --q " + q + " --frames l_hand_ref,r_hand_ref,head_camera --json"));
+  EXPECT_EQ(j["frames"].size(), 3u);
+}
+
+TEST(Cli, ExportThenImportWithRootAndHeight) {
+  const std::string file = testing::TempDir() + "wbm_cli_paper_export_" + std::to_string(getpid()) + ".urdf";
+  std::remove(file.c_str());
+  const CliRun exported = wbm_cli("model export -o '" + file + "'");
+  EXPECT_EQ(exported.status, 0) << exported.err;
+  const CliRun info = wbm_cli("model info '" + file + "' --root upper_body --root-height 0.6");
+  EXPECT_EQ(info.status, 0) << info.err;
+  EXPECT_NE(info.out.find("21 dofs"), std::string::npos) << info.out;
+  const json original = parse(wbm_cli("model info --json"));
+  const json back = parse(wbm_cli("model info '" + file + "' --root upper_body --root-height 0.6 --json"));
+  ASSERT_EQ(back["dofs"].size(), original["dofs"].size());
+  for (size_t i = 0; i < original["dofs"].size(); ++i) {
+    EXPECT_EQ(back["dofs"][i]["name"], original["dofs"][i]["name"]);
+    EXPECT_EQ(back["dofs"][i]["lower"], original["dofs"][i]["lower"]);
+    EXPECT_EQ(back["dofs"][i]["upper"], original["dofs"][i]["upper"]);
+    EXPECT_EQ(back["dofs"][i]["max_speed"], original["dofs"][i]["max_speed"]);
+  }
+  // The same hand pose at home.
+  const json fk_original = parse(wbm_cli("model fk --frames l_hand_ref --json"));
+  const json fk_back =
+      parse(wbm_cli("model fk '" + file + "' --root upper_body --root-height 0.6 --frames l_hand_ref --json"));
+  for (int r = 0; r < 3; ++r)
+    EXPECT_NEAR(fk_back["frames"]["l_hand_ref"]["position"][r].get<double>(),
+                fk_original["frames"]["l_hand_ref"]["position"][r].get<double>(), 1e-9);
+  std::remove(file.c_str());
+}
+
+TEST(Cli, ShippedUrdfWithLegs) {
+  const wbm_test::ShippedModel& g1 = wbm_test::shipped_model("g1_29dof");
+  const json j = parse(wbm_cli("model info '" + g1.path + "' --legs left_hip_pitch_link,right_hip_pitch_link --json"));
+  EXPECT_EQ(j["dofs"].size(), static_cast<size_t>(g1.load().num_dofs()));
+  const json fk = parse(wbm_cli("model fk '" + g1.path + "' --legs left_hip_pitch_link,right_hip_pitch_link --frames " +
+                                g1.left_hand + "," + g1.right_hand + " --jacobian --json"));
+  EXPECT_EQ(fk["frames"].size(), 2u);
+}
+
+TEST(Cli, UnknownFrameFails) {
+  const CliRun r = wbm_cli("model fk --frames no_such_frame --json");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.err.find("no frame named 'no_such_frame'"), std::string::npos) << r.err;
+  EXPECT_TRUE(r.out.empty()) << r.out;
+}
+
+TEST(Cli, WrongConfigurationSizeFails) {
+  const CliRun r = wbm_cli("model fk --q 1,2,3 --json");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.err.find("--q has 3 values; the model has 21 dofs"), std::string::npos) << r.err;
+}
+
+TEST(Cli, MissingSubcommandFails) {
+  EXPECT_NE(wbm_cli("").status, 0);
+  EXPECT_NE(wbm_cli("model").status, 0);
+}
+
+}  // namespace

@@ -1,0 +1,209 @@
+// Cross-check against Orocos KDL: for every shipped URDF, KDL's tree (built by kdl_parser
+// from the same file) gives the same link poses and Jacobians relative to the root link.
+//
+// Our model puts 9 virtual dofs before the root link, so poses are compared relative to
+// the root link: X_W,root^-1 * X_W,F (ours) vs X_B,root^-1 * X_B,F (KDL, B = tree base).
+// Locked leg joints are at 0 in our model; mimic joints have multiplier * q_master + offset.
+// KDL ignores <mimic>: it gets those values in its joint array, and its mimic columns are
+// added (times the multiplier) into the master's column.
+#include <cmath>
+#include <functional>
+#include <iostream>
+#include <map>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <kdl/jacobian.hpp>
+#include <kdl/jntarray.hpp>
+#include <kdl/tree.hpp>
+#include <kdl/treefksolverpos_recursive.hpp>
+#include <kdl/treejnttojacsolver.hpp>
+#include <kdl_parser/kdl_parser.hpp>
+#include <urdf_parser/urdf_parser.h>
+
+#include "shipped_models.hpp"
+#include "test_util.hpp"
+#include "wbm/kinematics.hpp"
+
+namespace {
+
+using wbm::Data;
+using wbm::Model;
+using wbm::Transform;
+using wbm_test::ShippedModel;
+
+constexpr int kConfigurations = 200;
+constexpr double kTolerance = 1e-9;
+constexpr int kMaxReportedFailures = 8;
+
+Transform to_transform(const KDL::Frame& F) {
+  Transform X;
+  for (int r = 0; r < 3; ++r) {
+    X.p[r] = F.p(r);
+    for (int c = 0; c < 3; ++c) X.R(r, c) = F.M(r, c);
+  }
+  return X;
+}
+
+/// Mimic relations of the URDF (KDL's tree does not keep them).
+struct Mimic {
+  std::string master;
+  double multiplier = 1.0, offset = 0.0;
+};
+
+std::map<std::string, Mimic> read_mimics(const std::string& path) {
+  std::map<std::string, Mimic> mimics;
+  const urdf::ModelInterfaceSharedPtr urdf = urdf::parseURDFFile(path);
+  if (!urdf) throw std::runtime_error("urdfdom cannot parse " + path);
+  for (const auto& [name, joint] : urdf->joints_)
+    if (joint->mimic) mimics[name] = {joint->mimic->joint_name, joint->mimic->multiplier, joint->mimic->offset};
+  return mimics;
+}
+
+/// One movable KDL joint: its column in KDL's arrays and where it goes in ours.
+struct KdlJoint {
+  std::string name;
+  unsigned q_nr = 0;
+};
+
+class KdlComparison : public testing::TestWithParam<ShippedModel> {};
+
+TEST_P(KdlComparison, PosesAndJacobiansMatchKdl) {
+  const ShippedModel& entry = GetParam();
+  const Model model = entry.load();
+  KDL::Tree tree;
+  if (!kdl_parser::treeFromFile(entry.path, tree))
+    GTEST_SKIP() << "kdl_parser could not parse " << entry.path << " (no KDL reference for model " << entry.id << ")";
+  const std::map<std::string, Mimic> mimics = read_mimics(entry.path);
+
+  const unsigned nj = tree.getNrOfJoints();
+  std::vector<KdlJoint> joints;
+  for (const auto& [segment_name, element] : tree.getSegments()) {
+    const KDL::Segment& segment = GetTreeElementSegment(element);
+    if (segment.getJoint().getType() != KDL::Joint::None)
+      joints.push_back({segment.getJoint().getName(), GetTreeElementQNr(element)});
+  }
+  ASSERT_EQ(joints.size(), nj);
+
+  // Frames to compare: our frames that are URDF links (KDL segments), on real bodies.
+  const wbm::VirtualDofs& v = model.virtual_dofs();
+  const std::string root = model.body(v.upper_body).name;
+  ASSERT_TRUE(tree.getSegments().count(root)) << "root link " << root << " is not a KDL segment";
+  std::vector<int> frames;
+  for (int f = 0; f < model.num_frames(); ++f)
+    if (model.frame(f).body >= v.upper_body && tree.getSegments().count(model.frame(f).name)) frames.push_back(f);
+  // Every URDF link except a cut-off world link is a frame of ours.
+  EXPECT_GE(frames.size() + 1, tree.getSegments().size()) << "frames missing in our model";
+  const int root_frame = model.frame_index(root);
+
+  // The joint value KDL gets for a URDF joint, given our configuration q.
+  std::function<double(const std::string&, const Eigen::VectorXd&)> joint_value =
+      [&](const std::string& joint, const Eigen::VectorXd& q) -> double {
+    const auto m = mimics.find(joint);
+    if (m != mimics.end()) return m->second.multiplier * joint_value(m->second.master, q) + m->second.offset;
+    const int dof = model.find_dof(joint);
+    return dof >= 0 ? q[dof] : 0.0;  // locked leg joint: 0
+  };
+  // The dof a KDL column adds into, and with which factor (-1: a locked joint).
+  std::vector<std::pair<int, double>> column_target(nj, {-1, 0.0});
+  int mapped = 0;
+  for (const KdlJoint& j : joints) {
+    std::string name = j.name;
+    double factor = 1.0;
+    while (mimics.count(name)) {
+      factor *= mimics.at(name).multiplier;
+      name = mimics.at(name).master;
+    }
+    const int dof = model.find_dof(name);
+    if (dof >= 0) {
+      column_target[j.q_nr] = {dof, factor};
+      ++mapped;
+    }
+  }
+  // Every non-virtual dof of ours is a KDL joint.
+  int real_dofs = 0;
+  for (const wbm::Dof& d : model.dofs()) real_dofs += d.role == wbm::DofRole::kJoint;
+  std::vector<bool> dof_seen(model.num_dofs(), false);
+  for (const auto& [dof, factor] : column_target)
+    if (dof >= 0) dof_seen[dof] = true;
+  for (int i = 0; i < model.num_dofs(); ++i)
+    if (model.dof(i).role == wbm::DofRole::kJoint) {
+      EXPECT_TRUE(dof_seen[i]) << "dof " << model.dof(i).name << " not in KDL";
+    }
+  EXPECT_GE(mapped, real_dofs);
+
+  KDL::TreeFkSolverPos_recursive kdl_fk(tree);
+  KDL::TreeJntToJacSolver kdl_jac(tree);
+  KDL::JntArray kq(nj);
+  KDL::Jacobian kJ(nj);
+  Data data(model);
+  Eigen::MatrixXd J(6, model.num_dofs());
+  std::mt19937_64 rng(2024);
+  int failures = 0;
+  double worst_pose = 0.0, worst_jacobian = 0.0;
+
+  for (int c = 0; c < kConfigurations && failures < kMaxReportedFailures; ++c) {
+    const Eigen::VectorXd q = wbm_test::random_configuration(model, rng);
+    for (const KdlJoint& j : joints) kq(j.q_nr) = joint_value(j.name, q);
+    wbm::forward_kinematics(model, data, q);
+    const Transform X_W_root = wbm::frame_pose(model, data, root_frame);
+    KDL::Frame kdl_root;
+    ASSERT_GE(kdl_fk.JntToCart(kq, kdl_root, root), 0);
+    const Transform X_B_root = to_transform(kdl_root);
+
+    for (const int f : frames) {
+      const std::string& name = model.frame(f).name;
+      // Poses relative to the root link.
+      KDL::Frame kdl_pose;
+      ASSERT_GE(kdl_fk.JntToCart(kq, kdl_pose, name), 0) << name;
+      const Transform ours = X_W_root.inverse() * wbm::frame_pose(model, data, f);
+      const Transform theirs = X_B_root.inverse() * to_transform(kdl_pose);
+      const double pose_error = wbm_test::transform_distance(ours, theirs);
+      worst_pose = std::max(worst_pose, pose_error);
+      if (!(pose_error <= kTolerance) && ++failures <= kMaxReportedFailures)
+        ADD_FAILURE() << entry.id << ", configuration #" << c << ", frame " << name << ": pose differs from KDL by "
+                      << pose_error << "\n  ours:\n" << ours.R << "\n  " << ours.p.transpose() << "\n  KDL:\n"
+                      << theirs.R << "\n  " << theirs.p.transpose()
+                      << "\n  q = " << wbm_test::describe_configuration(model, q);
+
+      // Jacobians in root-link coordinates, reference point at the frame origin.
+      ASSERT_GE(kdl_jac.JntToJac(kq, kJ, name), 0) << name;
+      wbm::frame_jacobian(model, data, f, J);
+      Eigen::MatrixXd expected = Eigen::MatrixXd::Zero(6, model.num_dofs());
+      for (unsigned k = 0; k < nj; ++k) {
+        const auto [dof, factor] = column_target[k];
+        if (dof >= 0) expected.col(dof) += factor * kJ.data.col(k);
+      }
+      const Eigen::Matrix3d R_root_B = X_B_root.R.transpose();
+      expected.topRows(3) = R_root_B * expected.topRows(3);
+      expected.bottomRows(3) = R_root_B * expected.bottomRows(3);
+      const Eigen::Matrix3d R_root_W = X_W_root.R.transpose();
+      Eigen::MatrixXd actual(6, model.num_dofs());
+      actual.topRows(3) = R_root_W * J.topRows(3);
+      actual.bottomRows(3) = R_root_W * J.bottomRows(3);
+      for (int i = 0; i < model.num_dofs(); ++i) {
+        if (model.dof(i).role != wbm::DofRole::kJoint) continue;  // virtual dofs: no KDL counterpart
+        const double err = (actual.col(i) - expected.col(i)).cwiseAbs().maxCoeff();
+        worst_jacobian = std::max(worst_jacobian, err);
+        if (!(err <= kTolerance) && ++failures <= kMaxReportedFailures)
+          ADD_FAILURE() << entry.id << ", configuration #" << c << ", frame " << name << ", column " << i << " ("
+                        << model.dof(i).name << "): ours " << wbm_test::describe_vector(actual.col(i)) << " vs KDL "
+                        << wbm_test::describe_vector(expected.col(i)) << ", error " << err
+                        << "\n  q = " << wbm_test::describe_configuration(model, q);
+      }
+    }
+  }
+  EXPECT_EQ(failures, 0);
+  RecordProperty("frames", static_cast<int>(frames.size()));
+  std::cout << "  " << entry.id << ": " << frames.size() << " frames x " << kConfigurations
+            << " configurations, largest pose difference " << worst_pose << ", largest Jacobian difference "
+            << worst_jacobian << "\n";
+}
+
+std::string case_name(const testing::TestParamInfo<ShippedModel>& param) { return param.param.id; }
+
+INSTANTIATE_TEST_SUITE_P(ShippedUrdfs, KdlComparison, testing::ValuesIn(wbm_test::shipped_urdf_models()), case_name);
+
+}  // namespace

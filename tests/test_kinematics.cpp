@@ -1,0 +1,676 @@
+// Kinematic core: Jacobians against finite differences of forward kinematics on every
+// shipped model, allocation-free evaluation, the paper model's layout, re-rooting and the
+// URDF export round trip.
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <map>
+#include <memory>
+#include <random>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "alloc_counter.hpp"
+#include "shipped_models.hpp"
+#include "test_util.hpp"
+#include "wbm/errors.hpp"
+#include "wbm/kinematics.hpp"
+#include "wbm/paper_model.hpp"
+#include "wbm/urdf_import.hpp"
+
+namespace {
+
+using wbm::Data;
+using wbm::Model;
+using wbm::Transform;
+using wbm::Vector3;
+using wbm_test::ShippedModel;
+
+constexpr int kConfigurations = 1000;  // per model
+constexpr int kFramesPerConfiguration = 8;
+constexpr double kStep = 1e-6;         // central-difference step [rad] or [m]
+constexpr double kFdTolerance = 1e-6;  // |analytic - finite difference|, per entry
+constexpr int kMaxReportedFailures = 8;
+
+/// G1 imported with its torso as the root: the waist joints are reversed.
+ShippedModel g1_torso_root() {
+  ShippedModel m = wbm_test::shipped_model("g1_29dof");
+  m.id = "g1_29dof_torso_root";
+  m.options.root = "torso_link";
+  return m;
+}
+
+/// Synthetic robot with prismatic and mimic joints (multiplier != 1, offsets), imported
+/// from several roots so that every kind of joint is also reversed.
+ShippedModel synthetic(const std::string& root) {
+  ShippedModel m;
+  m.id = "synthetic_root_" + (root.empty() ? std::string("base") : root);
+  m.path = wbm_test::source_path("tests/data/mimic_prismatic.urdf");
+  m.options.root = root;
+  m.options.legs = {"leg"};
+  m.options.root_height = 0.7;
+  m.left_hand = m.right_hand = "tool";
+  m.has_mimic = true;
+  return m;
+}
+
+/// The shipped models plus re-rooted and synthetic variants.
+std::vector<ShippedModel> kinematic_cases() {
+  std::vector<ShippedModel> cases = wbm_test::shipped_models();
+  cases.push_back(g1_torso_root());
+  cases.push_back(synthetic(""));
+  cases.push_back(synthetic("link_b"));
+  cases.push_back(synthetic("tool"));
+  return cases;
+}
+
+std::string case_name(const testing::TestParamInfo<ShippedModel>& info) { return info.param.id; }
+
+/// Deterministic seed per model id (std::hash is not portable across libraries).
+std::uint64_t seed_for(const std::string& id) {
+  std::uint64_t h = 1469598103934665603ull;  // FNV-1a
+  for (unsigned char c : id) h = (h ^ c) * 1099511628211ull;
+  return h;
+}
+
+/// Collects failures with context, reporting only the first few in detail.
+class FailureLog {
+ public:
+  explicit FailureLog(std::string model) : model_(std::move(model)) {}
+  void check(const Model& model, int config, const Eigen::VectorXd& q, const std::string& what, int column,
+             const Eigen::VectorXd& analytic, const Eigen::VectorXd& numeric, double tolerance) {
+    const double err = (analytic - numeric).cwiseAbs().maxCoeff();
+    if (err <= tolerance && std::isfinite(err)) return;
+    if (++failures_ > kMaxReportedFailures) return;
+    ADD_FAILURE() << "model " << model_ << ", configuration #" << config << ", " << what << ", column " << column
+                  << " (dof '" << model.dof(column).name << "'): analytic " << wbm_test::describe_vector(analytic)
+                  << " vs finite difference " << wbm_test::describe_vector(numeric) << ", error " << err
+                  << " > " << tolerance << "\n  q = " << wbm_test::describe_configuration(model, q);
+  }
+  int failures() const { return failures_; }
+
+ private:
+  std::string model_;
+  int failures_ = 0;
+};
+
+class Kinematics : public testing::TestWithParam<ShippedModel> {};
+
+// Every column of every Jacobian against central differences of forward kinematics:
+// frame_jacobian (rows 0-2 translation, rows 3-5 rotation via the log of R+ R-^T),
+// point_jacobian and rotational_jacobian of a random point/body, com_jacobian.
+TEST_P(Kinematics, JacobiansMatchFiniteDifferences) {
+  const ShippedModel& entry = GetParam();
+  const Model model = entry.load();
+  const int nq = model.num_dofs();
+  const int nf = model.num_frames();
+  const int nb = model.num_bodies();
+  std::mt19937_64 rng(seed_for(entry.id));
+  wbm_test::Deck frame_deck(nf, rng);
+  wbm_test::Deck body_deck(nb, rng);
+  std::vector<bool> frame_seen(nf, false), body_seen(nb, false);
+
+  Data data(model), plus(model), minus(model);
+  std::vector<int> frames(kFramesPerConfiguration);
+  std::vector<Eigen::MatrixXd> J(kFramesPerConfiguration, Eigen::MatrixXd(6, nq));
+  Eigen::MatrixXd Jp(3, nq), Jr(3, nq), Jc(3, nq);
+  FailureLog log(entry.id);
+
+  for (int c = 0; c < kConfigurations && log.failures() <= kMaxReportedFailures; ++c) {
+    const Eigen::VectorXd q = wbm_test::random_configuration(model, rng);
+    wbm::forward_kinematics(model, data, q);
+    wbm::center_of_mass(model, data);
+    for (int k = 0; k < kFramesPerConfiguration; ++k) {
+      frames[k] = frame_deck.next();
+      frame_seen[frames[k]] = true;
+      wbm::frame_jacobian(model, data, frames[k], J[k]);
+    }
+    const int body = body_deck.next();
+    body_seen[body] = true;
+    const Vector3 r_BQ = wbm_test::random_vector3(rng, 0.3);  // point fixed to the body
+    wbm::point_jacobian(model, data, body, data.X_WB[body] * r_BQ, Jp);
+    wbm::rotational_jacobian(model, data, body, Jr);
+    wbm::com_jacobian(model, data, Jc);
+
+    for (int i = 0; i < nq; ++i) {
+      Eigen::VectorXd qp = q, qm = q;
+      qp[i] += kStep;
+      qm[i] -= kStep;
+      wbm::forward_kinematics(model, plus, qp);
+      wbm::forward_kinematics(model, minus, qm);
+      for (int k = 0; k < kFramesPerConfiguration; ++k) {
+        const Transform Xp = wbm::frame_pose(model, plus, frames[k]);
+        const Transform Xm = wbm::frame_pose(model, minus, frames[k]);
+        Eigen::VectorXd fd(6);
+        fd.head<3>() = (Xp.p - Xm.p) / (2 * kStep);
+        fd.tail<3>() = wbm_test::rotation_log(Xp.R * Xm.R.transpose()) / (2 * kStep);
+        log.check(model, c, q, "frame_jacobian of '" + model.frame(frames[k]).name + "'", i, J[k].col(i), fd,
+                  kFdTolerance);
+      }
+      const Eigen::VectorXd fd_point = (plus.X_WB[body] * r_BQ - minus.X_WB[body] * r_BQ) / (2 * kStep);
+      log.check(model, c, q, "point_jacobian of body '" + model.body(body).name + "'", i, Jp.col(i), fd_point,
+                kFdTolerance);
+      const Eigen::VectorXd fd_rot =
+          wbm_test::rotation_log(plus.X_WB[body].R * minus.X_WB[body].R.transpose()) / (2 * kStep);
+      log.check(model, c, q, "rotational_jacobian of body '" + model.body(body).name + "'", i, Jr.col(i), fd_rot,
+                kFdTolerance);
+      const Eigen::VectorXd fd_com =
+          (wbm::center_of_mass(model, plus) - wbm::center_of_mass(model, minus)) / (2 * kStep);
+      log.check(model, c, q, "com_jacobian", i, Jc.col(i), fd_com, kFdTolerance);
+    }
+  }
+  EXPECT_EQ(log.failures(), 0) << "Jacobian mismatches in model " << entry.id;
+  // Every frame and every body was checked at least once.
+  for (int f = 0; f < nf; ++f) EXPECT_TRUE(frame_seen[f]) << "frame " << model.frame(f).name << " never checked";
+  for (int b = 0; b < nb; ++b) EXPECT_TRUE(body_seen[b]) << "body " << model.body(b).name << " never checked";
+}
+
+// J q̇ against FK differentiated along a random direction, for all frames and the com at
+// once: covers mimic joints, whose columns sum several bodies' contributions.
+TEST_P(Kinematics, JacobianTimesVelocityMatchesDirectionalDerivative) {
+  const ShippedModel& entry = GetParam();
+  const Model model = entry.load();
+  const int nq = model.num_dofs();
+  std::mt19937_64 rng(seed_for(entry.id) + 1);
+  Data data(model), plus(model), minus(model);
+  Eigen::MatrixXd J(6, nq), Jc(3, nq);
+  int failures = 0;
+  for (int c = 0; c < kConfigurations && failures < kMaxReportedFailures; ++c) {
+    const Eigen::VectorXd q = wbm_test::random_configuration(model, rng);
+    const Eigen::VectorXd v = wbm_test::random_direction(nq, rng);
+    const Eigen::VectorXd qp = q + kStep * v, qm = q - kStep * v;
+    wbm::forward_kinematics(model, data, q);
+    wbm::forward_kinematics(model, plus, qp);
+    wbm::forward_kinematics(model, minus, qm);
+    for (int f = 0; f < model.num_frames(); ++f) {
+      wbm::frame_jacobian(model, data, f, J);
+      const Transform Xp = wbm::frame_pose(model, plus, f), Xm = wbm::frame_pose(model, minus, f);
+      Eigen::VectorXd fd(6);
+      fd.head<3>() = (Xp.p - Xm.p) / (2 * kStep);
+      fd.tail<3>() = wbm_test::rotation_log(Xp.R * Xm.R.transpose()) / (2 * kStep);
+      const Eigen::VectorXd Jv = J * v;
+      const double err = (Jv - fd).cwiseAbs().maxCoeff();
+      if (!(err <= kFdTolerance) && ++failures <= kMaxReportedFailures)
+        ADD_FAILURE() << "model " << entry.id << ", configuration #" << c << ", frame '" << model.frame(f).name
+                      << "': J v = " << wbm_test::describe_vector(Jv) << " vs d/dt FK = " << wbm_test::describe_vector(fd)
+                      << ", error " << err << "\n  q = " << wbm_test::describe_configuration(model, q)
+                      << "\n  v = " << wbm_test::describe_vector(v);
+    }
+    wbm::center_of_mass(model, data);
+    wbm::com_jacobian(model, data, Jc);
+    const Eigen::VectorXd fd_com =
+        (wbm::center_of_mass(model, plus) - wbm::center_of_mass(model, minus)) / (2 * kStep);
+    const double err = (Jc * v - fd_com).cwiseAbs().maxCoeff();
+    if (!(err <= kFdTolerance) && ++failures <= kMaxReportedFailures)
+      ADD_FAILURE() << "model " << entry.id << ", configuration #" << c << ", com: error " << err
+                    << "\n  q = " << wbm_test::describe_configuration(model, q);
+  }
+  EXPECT_EQ(failures, 0);
+}
+
+// The mimic coverage above is real: these models have dofs that drive several bodies.
+TEST_P(Kinematics, MimicModelsShareDofs) {
+  const ShippedModel& entry = GetParam();
+  const Model model = entry.load();
+  std::vector<int> driven(model.num_dofs(), 0);
+  int scaled = 0;
+  for (const wbm::Body& b : model.bodies()) {
+    if (b.dof < 0) continue;
+    ++driven[b.dof];
+    if (b.multiplier != 1.0 || b.offset != 0.0) ++scaled;
+  }
+  const bool shared = std::any_of(driven.begin(), driven.end(), [](int n) { return n > 1; });
+  EXPECT_EQ(shared, entry.has_mimic) << entry.id;
+  if (entry.id.rfind("synthetic", 0) == 0 || entry.id == "nao") {
+    EXPECT_GT(scaled, 0) << entry.id;
+  }
+}
+
+// The frames named in shipped_models exist.
+TEST_P(Kinematics, NamedFramesExist) {
+  const ShippedModel& entry = GetParam();
+  const Model model = entry.load();
+  for (const std::string& name : {entry.left_hand, entry.right_hand, entry.head})
+    if (!name.empty()) {
+      EXPECT_GE(model.find_frame(name), 0) << entry.id << ": " << name;
+    }
+}
+
+// Forward kinematics, poses, Jacobians and the centre of mass allocate nothing, also when
+// the Jacobian is a block of a larger matrix (as a solver stacks them).
+TEST_P(Kinematics, EvaluationDoesNotAllocate) {
+  const ShippedModel& entry = GetParam();
+  const Model model = entry.load();
+  const int nq = model.num_dofs();
+  std::mt19937_64 rng(seed_for(entry.id) + 2);
+  Data data(model);
+  const Eigen::VectorXd q = wbm_test::random_configuration(model, rng);
+  std::vector<double> raw(q.data(), q.data() + nq);
+  const Eigen::Map<const Eigen::VectorXd> q_map(raw.data(), nq);
+  Eigen::MatrixXd J6(6, nq), J3(3, nq), stacked(15, nq);
+  Eigen::Matrix<double, 6, Eigen::Dynamic> J6_fixed(6, nq);
+  const int hand = model.frame_index(entry.left_hand);
+  const int body = model.frame(hand).body;
+  double sink = 0.0;
+
+  wbm_test::AllocationCounter counter;
+  for (int rep = 0; rep < 3; ++rep) {
+    wbm::forward_kinematics(model, data, q);
+    wbm::forward_kinematics(model, data, q_map);
+    for (int f = 0; f < model.num_frames(); ++f) {
+      const Transform X = wbm::frame_pose(model, data, f);
+      sink += X.p.x();
+      wbm::frame_jacobian(model, data, f, J6);
+    }
+    wbm::frame_jacobian(model, data, hand, J6_fixed);
+    wbm::frame_jacobian(model, data, hand, stacked.middleRows(3, 6));
+    wbm::point_jacobian(model, data, body, data.X_WB[body].p, J3);
+    wbm::point_jacobian(model, data, body, data.X_WB[body].p, stacked.topRows(3));
+    wbm::rotational_jacobian(model, data, body, J3);
+    wbm::rotational_jacobian(model, data, body, stacked.bottomRows(3));
+    sink += wbm::center_of_mass(model, data).z();
+    wbm::com_jacobian(model, data, J3);
+    wbm::com_jacobian(model, data, stacked.middleRows(9, 3));
+  }
+  const auto allocations = counter.count();
+  EXPECT_EQ(allocations, 0) << entry.id << ": kinematics allocated " << allocations << " times";
+  EXPECT_TRUE(std::isfinite(sink));
+  EXPECT_TRUE(stacked.middleRows(3, 6).isApprox(J6_fixed));
+}
+
+INSTANTIATE_TEST_SUITE_P(Models, Kinematics, testing::ValuesIn(kinematic_cases()), case_name);
+
+// ---------------------------------------------------------------------------------------
+// The allocation counter itself.
+
+struct alignas(64) OverAligned {
+  double v[8];
+};
+
+/// Keeps the optimiser from removing new/delete pairs (allowed since C++14).
+void* volatile g_escape = nullptr;
+
+TEST(AllocationCounter, CountsVectorAllocations) {
+  wbm_test::AllocationCounter counter;
+  std::vector<double> v(100, 1.0);
+  g_escape = v.data();
+  EXPECT_GT(counter.count(), 0);
+}
+
+TEST(AllocationCounter, CountsEveryOperatorNewVariant) {
+  wbm_test::AllocationCounter counter;
+  int* a = new int(1);
+  g_escape = a;
+  delete a;
+  EXPECT_EQ(counter.count(), 1);
+  int* b = new int[7];
+  g_escape = b;
+  delete[] b;
+  EXPECT_EQ(counter.count(), 2);
+  int* c = new (std::nothrow) int(3);
+  g_escape = c;
+  delete c;
+  EXPECT_EQ(counter.count(), 3);
+  auto* d = new OverAligned;
+  g_escape = d;
+  EXPECT_EQ(reinterpret_cast<std::uintptr_t>(d) % 64, 0u);
+  delete d;
+  EXPECT_EQ(counter.count(), 4);
+  auto* e = new OverAligned[3];
+  g_escape = e;
+  delete[] e;
+  EXPECT_EQ(counter.count(), 5);
+  auto* f = new (std::nothrow) OverAligned;
+  g_escape = f;
+  delete f;
+  EXPECT_EQ(counter.count(), 6);
+  const auto frees = wbm_test::deallocations();
+  auto g = std::make_unique<double>(2.0);
+  g_escape = g.get();
+  g.reset();
+  EXPECT_EQ(wbm_test::deallocations(), frees + 1);
+}
+
+TEST(AllocationCounter, SeesAllocationsInsideLibwbm) {
+  const Model model = wbm::make_paper_model();
+  wbm_test::AllocationCounter counter;
+  Data data(model);  // sizes its buffers: allocates inside the library
+  g_escape = data.X_WB.data();
+  EXPECT_GT(counter.count(), 0);
+  counter.reset();
+  EXPECT_THROW(model.frame_index("no_such_frame"), wbm::ModelError);  // builds a message
+  EXPECT_GT(counter.count(), 0);
+}
+
+// ---------------------------------------------------------------------------------------
+// The built-in paper model (section II, eq. 1).
+
+Eigen::VectorXd zero_arm_configuration(const Model& model) {
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(model.num_dofs());
+  q[model.virtual_dofs().ub_z] = model.dof(model.virtual_dofs().ub_z).upper;  // standing straight
+  return q;
+}
+
+TEST(PaperModel, DofsInTheOrderOfEquation1) {
+  const Model model = wbm::make_paper_model();
+  const std::vector<std::string> expected = {
+      "heel_x", "heel_y", "heel_yaw", "upper_body_x", "upper_body_y", "upper_body_z", "upper_body_roll",
+      "upper_body_pitch", "upper_body_yaw", "l_shoulder_pitch", "l_shoulder_roll", "l_shoulder_yaw", "l_elbow",
+      "l_hand_rot", "r_shoulder_pitch", "r_shoulder_roll", "r_shoulder_yaw", "r_elbow", "r_hand_rot", "head_pan",
+      "head_tilt"};
+  ASSERT_EQ(model.num_dofs(), 21);
+  for (int i = 0; i < 21; ++i) EXPECT_EQ(model.dof(i).name, expected[i]) << "dof " << i;
+  const wbm::VirtualDofs& v = model.virtual_dofs();
+  EXPECT_EQ(v.heel_x, 0);
+  EXPECT_EQ(v.heel_y, 1);
+  EXPECT_EQ(v.heel_yaw, 2);
+  EXPECT_EQ(v.ub_x, 3);
+  EXPECT_EQ(v.ub_y, 4);
+  EXPECT_EQ(v.ub_z, 5);
+  EXPECT_EQ(v.ub_roll, 6);
+  EXPECT_EQ(v.ub_pitch, 7);
+  EXPECT_EQ(v.ub_yaw, 8);
+  EXPECT_EQ(model.dof(0).role, wbm::DofRole::kHeelX);
+  EXPECT_EQ(model.dof(8).role, wbm::DofRole::kUpperBodyYaw);
+  EXPECT_EQ(model.dof(9).role, wbm::DofRole::kJoint);
+  EXPECT_EQ(model.dof(0).type, wbm::JointType::kPrismatic);
+  EXPECT_EQ(model.dof(2).type, wbm::JointType::kRevolute);
+  EXPECT_TRUE(model.dof(2).continuous);
+  EXPECT_EQ(model.body(v.heel_body).name, "heel");
+  EXPECT_EQ(model.body(v.upper_body).name, "upper_body");
+  for (int i = 0; i < 21; ++i) {
+    EXPECT_GT(model.dof(i).max_speed, 0.0) << model.dof(i).name;
+    EXPECT_GT(model.dof(i).work_range, 0.0) << model.dof(i).name;
+  }
+  EXPECT_NO_THROW(model.check_configuration(model.home()));
+}
+
+TEST(PaperModel, MassAndFrames) {
+  const Model model = wbm::make_paper_model();
+  EXPECT_NEAR(model.total_mass(), 54.0, 0.5);
+  for (const char* name : {"l_hand_ref", "r_hand_ref", "head_camera", "heel", "upper_body"})
+    EXPECT_GE(model.find_frame(name), 0) << name;
+}
+
+TEST(PaperModel, GraspAxesForwardAndHandsBelowShouldersAtZeroArms) {
+  const Model model = wbm::make_paper_model();
+  Data data(model);
+  wbm::forward_kinematics(model, data, zero_arm_configuration(model));
+  for (const char* side : {"l_", "r_"}) {
+    const std::string s = side;
+    const Transform hand = wbm::frame_pose(model, data, model.frame_index(s + "hand_ref"));
+    const Transform shoulder = wbm::frame_pose(model, data, model.frame_index(s + "shoulder_1"));
+    EXPECT_TRUE(hand.R.col(2).isApprox(Vector3::UnitX(), 1e-12)) << s << " grasp axis " << hand.R.col(2).transpose();
+    EXPECT_LT(hand.p.z(), shoulder.p.z() - 0.3) << s;
+    EXPECT_NEAR(hand.p.x(), shoulder.p.x(), 1e-12) << s;
+    EXPECT_NEAR(hand.p.y(), shoulder.p.y(), 1e-12) << s;
+  }
+  const Transform l = wbm::frame_pose(model, data, model.frame_index("l_hand_ref"));
+  const Transform r = wbm::frame_pose(model, data, model.frame_index("r_hand_ref"));
+  EXPECT_GT(l.p.y(), 0.1);
+  EXPECT_LT(r.p.y(), -0.1);
+  const Transform cam = wbm::frame_pose(model, data, model.frame_index("head_camera"));
+  EXPECT_TRUE(cam.R.col(2).isApprox(Vector3::UnitX(), 1e-12)) << "view axis " << cam.R.col(2).transpose();
+  EXPECT_GT(cam.p.z(), l.p.z());
+}
+
+/// Mirror image (y -> -y) of a configuration: left and right arms swap, rotations about x
+/// and z change sign, rotations about y and translations in x and z keep it.
+Eigen::VectorXd mirror(const Model& model, const Eigen::VectorXd& q) {
+  Eigen::VectorXd m(q.size());
+  for (int i = 0; i < model.num_dofs(); ++i) {
+    std::string name = model.dof(i).name;
+    if (name.rfind("l_", 0) == 0) name[0] = 'r';
+    else if (name.rfind("r_", 0) == 0) name[0] = 'l';
+    const int j = model.dof_index(name);
+    static const std::set<std::string> kOdd = {"heel_y", "heel_yaw", "upper_body_y", "upper_body_roll",
+                                               "upper_body_yaw", "shoulder_roll", "shoulder_yaw", "hand_rot",
+                                               "head_pan"};
+    const std::string base = (name.rfind("l_", 0) == 0 || name.rfind("r_", 0) == 0) ? name.substr(2) : name;
+    m[i] = kOdd.count(base) ? -q[j] : q[j];
+  }
+  return m;
+}
+
+TEST(PaperModel, LeftRightMirrorSymmetry) {
+  const Model model = wbm::make_paper_model();
+  const Eigen::Matrix3d M = Eigen::Vector3d(1, -1, 1).asDiagonal();
+  Data data(model), mirrored(model);
+  std::mt19937_64 rng(7);
+  for (int c = 0; c < 200; ++c) {
+    const Eigen::VectorXd q = wbm_test::random_configuration(model, rng);
+    const Eigen::VectorXd qm = mirror(model, q);
+    ASSERT_NO_THROW(model.check_configuration(qm)) << "mirrored limits are not symmetric";
+    wbm::forward_kinematics(model, data, q);
+    wbm::forward_kinematics(model, mirrored, qm);
+    for (int f = 0; f < model.num_frames(); ++f) {
+      std::string name = model.frame(f).name;
+      if (name.rfind("l_", 0) == 0) name[0] = 'r';
+      else if (name.rfind("r_", 0) == 0) name[0] = 'l';
+      const Transform X = wbm::frame_pose(model, data, f);
+      const Transform Y = wbm::frame_pose(model, mirrored, model.frame_index(name));
+      EXPECT_LT((M * X.p - Y.p).cwiseAbs().maxCoeff(), 1e-12) << model.frame(f).name << " vs " << name;
+      EXPECT_LT((M * X.R * M - Y.R).cwiseAbs().maxCoeff(), 1e-12) << model.frame(f).name << " vs " << name;
+    }
+    const Vector3 c1 = wbm::center_of_mass(model, data), c2 = wbm::center_of_mass(model, mirrored);
+    EXPECT_LT((M * c1 - c2).cwiseAbs().maxCoeff(), 1e-12);
+  }
+}
+
+// ---------------------------------------------------------------------------------------
+// Re-rooting: G1 imported with the torso as the upper body.
+
+/// Frames that stand for URDF links (not the virtual heel/upper-body bodies).
+std::vector<std::string> link_frames(const Model& model) {
+  std::vector<std::string> names;
+  for (const wbm::Frame& f : model.frames())
+    if (f.body >= model.virtual_dofs().upper_body) names.push_back(f.name);
+  return names;
+}
+
+TEST(ReRooting, G1TorsoRootGivesTheSameRelativePoses) {
+  const ShippedModel& g1 = wbm_test::shipped_model("g1_29dof");
+  const Model pelvis = g1.load();
+  const Model torso = g1_torso_root().load();
+  EXPECT_EQ(torso.body(torso.virtual_dofs().upper_body).name, "torso_link");
+  EXPECT_NEAR(torso.total_mass(), pelvis.total_mass(), 1e-9);
+  ASSERT_EQ(torso.num_dofs(), pelvis.num_dofs());
+
+  std::vector<std::pair<int, int>> common;  // frame index in pelvis model, in torso model
+  for (const std::string& name : link_frames(pelvis)) {
+    const int t = torso.find_frame(name);
+    if (t >= 0) common.emplace_back(pelvis.frame_index(name), t);
+  }
+  // Every URDF link is a frame of both models.
+  EXPECT_EQ(common.size(), link_frames(pelvis).size());
+  EXPECT_GE(common.size(), 40u);
+
+  Data dp(pelvis), dt(torso);
+  std::mt19937_64 rng(11);
+  int failures = 0;
+  for (int c = 0; c < 100; ++c) {
+    const Eigen::VectorXd qp = wbm_test::random_configuration(pelvis, rng);
+    Eigen::VectorXd qt = wbm_test::random_configuration(torso, rng);  // virtual dofs differ
+    for (int i = 0; i < pelvis.num_dofs(); ++i)
+      if (pelvis.dof(i).role == wbm::DofRole::kJoint) qt[torso.dof_index(pelvis.dof(i).name)] = qp[i];
+    wbm::forward_kinematics(pelvis, dp, qp);
+    wbm::forward_kinematics(torso, dt, qt);
+    for (const auto& [a_p, a_t] : common) {
+      const Transform Ap = wbm::frame_pose(pelvis, dp, a_p).inverse();
+      const Transform At = wbm::frame_pose(torso, dt, a_t).inverse();
+      for (const auto& [b_p, b_t] : common) {
+        const double d = wbm_test::transform_distance(Ap * wbm::frame_pose(pelvis, dp, b_p),
+                                                      At * wbm::frame_pose(torso, dt, b_t));
+        if (!(d <= 1e-9) && ++failures <= kMaxReportedFailures)
+          ADD_FAILURE() << "pose of " << pelvis.frame(b_p).name << " relative to " << pelvis.frame(a_p).name
+                        << " differs by " << d << "\n  q = " << wbm_test::describe_configuration(pelvis, qp);
+      }
+    }
+  }
+  EXPECT_EQ(failures, 0);
+}
+
+TEST(ReRooting, RootHeightComesFromTheLegsAlsoWhenTheyHangBelowReversedJoints) {
+  const ShippedModel& g1 = wbm_test::shipped_model("g1_29dof");
+  const Model pelvis = g1.load();
+  const Model torso = g1_torso_root().load();
+  // Expected: the lowest leg link origin below the root origin at zero joint values.
+  Data data(pelvis);
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(pelvis.num_dofs());
+  q[pelvis.virtual_dofs().ub_z] = pelvis.dof(pelvis.virtual_dofs().ub_z).upper;
+  wbm::forward_kinematics(pelvis, data, q);
+  auto lowest_leg_link = [&](const std::string& root) {
+    const Transform X_RW = wbm::frame_pose(pelvis, data, pelvis.frame_index(root)).inverse();
+    double lowest = std::numeric_limits<double>::infinity();
+    for (const wbm::Frame& f : pelvis.frames())
+      for (const char* part : {"_hip_", "_knee_", "_ankle_"})
+        if (f.name.find(part) != std::string::npos)
+          lowest = std::min(lowest, (X_RW * wbm::frame_pose(pelvis, data, pelvis.frame_index(f.name))).p.z());
+    return lowest;
+  };
+  EXPECT_NEAR(pelvis.dof(pelvis.virtual_dofs().ub_z).upper, -lowest_leg_link("pelvis"), 1e-9);
+  EXPECT_NEAR(torso.dof(torso.virtual_dofs().ub_z).upper, -lowest_leg_link("torso_link"), 1e-9);
+}
+
+// ---------------------------------------------------------------------------------------
+// URDF export round trip.
+
+TEST(Export, PaperModelRoundTrip) {
+  const Model original = wbm::make_paper_model();
+  const std::string xml = wbm::export_urdf(original);
+  wbm::UrdfImportOptions options;
+  options.root = "upper_body";
+  options.root_height = 0.6;
+  const Model back = wbm::parse_urdf(xml, options, "paper_export.urdf");
+
+  ASSERT_EQ(back.num_dofs(), original.num_dofs());
+  for (int i = 0; i < original.num_dofs(); ++i) {
+    const wbm::Dof &a = original.dof(i), &b = back.dof(i);
+    EXPECT_EQ(a.name, b.name);
+    EXPECT_EQ(a.type, b.type) << a.name;
+    EXPECT_EQ(a.role, b.role) << a.name;
+    EXPECT_EQ(a.continuous, b.continuous) << a.name;
+    EXPECT_EQ(a.lower, b.lower) << a.name;
+    EXPECT_EQ(a.upper, b.upper) << a.name;
+    EXPECT_EQ(a.max_speed, b.max_speed) << a.name;
+    EXPECT_DOUBLE_EQ(a.work_range, b.work_range) << a.name;
+  }
+  EXPECT_NEAR(back.total_mass(), original.total_mass(), 1e-9);
+
+  std::vector<std::pair<int, int>> frames;
+  for (int f = 0; f < original.num_frames(); ++f) {
+    const int g = back.find_frame(original.frame(f).name);
+    EXPECT_GE(g, 0) << "frame " << original.frame(f).name << " lost in the round trip";
+    if (g >= 0) frames.emplace_back(f, g);
+  }
+  Data da(original), db(back);
+  std::mt19937_64 rng(3);
+  for (int c = 0; c < 200; ++c) {
+    const Eigen::VectorXd q = wbm_test::random_configuration(original, rng);
+    wbm::forward_kinematics(original, da, q);
+    wbm::forward_kinematics(back, db, q);
+    for (const auto& [f, g] : frames)
+      ASSERT_LT(wbm_test::transform_distance(wbm::frame_pose(original, da, f), wbm::frame_pose(back, db, g)), 1e-9)
+          << "frame " << original.frame(f).name << "\n  q = " << wbm_test::describe_configuration(original, q);
+  }
+  // The heel mass is welded at the home pose: the centre of mass agrees there.
+  wbm::forward_kinematics(original, da, original.home());
+  wbm::forward_kinematics(back, db, original.home());
+  EXPECT_LT((wbm::center_of_mass(original, da) - wbm::center_of_mass(back, db)).cwiseAbs().maxCoeff(), 1e-9);
+}
+
+TEST(Export, ShippedModelsRoundTrip) {
+  // Every shipped URDF model survives export + import with the same frame poses.
+  for (const ShippedModel& entry : wbm_test::shipped_urdf_models()) {
+    SCOPED_TRACE(entry.id);
+    const Model original = entry.load();
+    wbm::UrdfImportOptions options;
+    options.root = original.body(original.virtual_dofs().upper_body).name;
+    options.root_height = original.dof(original.virtual_dofs().ub_z).upper;
+    const Model back = wbm::parse_urdf(wbm::export_urdf(original), options, entry.id + "_export.urdf");
+    ASSERT_EQ(back.num_dofs(), original.num_dofs());
+    EXPECT_NEAR(back.total_mass(), original.total_mass(), 1e-9);
+    Data da(original), db(back);
+    std::mt19937_64 rng(5);
+    for (int c = 0; c < 20; ++c) {
+      const Eigen::VectorXd q = wbm_test::random_configuration(original, rng);
+      wbm::forward_kinematics(original, da, q);
+      wbm::forward_kinematics(back, db, q);
+      for (int f = 0; f < original.num_frames(); ++f) {
+        const int g = back.find_frame(original.frame(f).name);
+        ASSERT_GE(g, 0) << original.frame(f).name;
+        ASSERT_LT(wbm_test::transform_distance(wbm::frame_pose(original, da, f), wbm::frame_pose(back, db, g)), 1e-9)
+            << "frame " << original.frame(f).name;
+      }
+    }
+  }
+}
+
+TEST(Export, ModelWithWeldedBody) {
+  // Bodies without a dof (welded to their parent) are legal in a ModelBuilder model.
+  wbm::ModelBuilder builder("welded");
+  wbm::Inertial trunk;
+  trunk.mass = 10.0;
+  const int ub = wbm::add_virtual_base(builder, 1.0, "trunk", wbm::Inertial{}, trunk);
+  wbm::Body arm;
+  arm.name = "arm";
+  arm.parent = ub;
+  arm.X_PJ.p = {0.0, 0.2, 0.3};
+  arm.axis = Vector3::UnitY();
+  wbm::Dof dof;
+  dof.name = "shoulder";
+  dof.lower = -1.0;
+  dof.upper = 1.0;
+  dof.max_speed = 2.0;
+  arm.dof = builder.add_dof(dof);
+  arm.inertial.mass = 1.0;
+  const int arm_body = builder.add_body(arm);
+  wbm::Body hand;
+  hand.name = "hand";
+  hand.parent = arm_body;
+  hand.X_PJ.p = {0.0, 0.0, -0.4};
+  hand.X_PJ.R = wbm::rotation_from_rpy(0.1, 0.2, 0.3);
+  hand.dof = -1;
+  hand.inertial.mass = 0.5;
+  builder.add_body(hand);
+  const Model original = builder.build();
+  std::string xml;
+  ASSERT_NO_THROW(xml = wbm::export_urdf(original));
+  wbm::UrdfImportOptions options;
+  options.root = "trunk";
+  options.root_height = 1.0;
+  const Model back = wbm::parse_urdf(xml, options, "welded_export.urdf");
+  EXPECT_EQ(back.num_dofs(), original.num_dofs());
+  EXPECT_NEAR(back.total_mass(), original.total_mass(), 1e-12);
+  Data da(original), db(back);
+  wbm::forward_kinematics(original, da, original.home());
+  wbm::forward_kinematics(back, db, original.home());
+  EXPECT_LT(wbm_test::transform_distance(wbm::frame_pose(original, da, original.frame_index("hand")),
+                                         wbm::frame_pose(back, db, back.frame_index("hand"))),
+            1e-12);
+}
+
+// ---------------------------------------------------------------------------------------
+// Roll-pitch-yaw conversion, used by the exporter for every joint origin.
+
+TEST(Transform, RpyRoundTripIncludingGimbalLock) {
+  std::mt19937_64 rng(17);
+  std::uniform_real_distribution<double> angle(-M_PI, M_PI);
+  std::vector<wbm::Matrix3> rotations;
+  for (int i = 0; i < 1000; ++i)
+    rotations.push_back(wbm::rotation_from_rpy(angle(rng), angle(rng) / 2, angle(rng)));
+  for (double pitch : {M_PI / 2, -M_PI / 2, M_PI / 2 - 1e-9, -M_PI / 2 + 1e-12})
+    for (int i = 0; i < 50; ++i) rotations.push_back(wbm::rotation_from_rpy(angle(rng), pitch, angle(rng)));
+  for (const wbm::Matrix3& R : rotations) {
+    const Vector3 rpy = wbm::rpy_from_rotation(R);
+    const wbm::Matrix3 back = wbm::rotation_from_rpy(rpy.x(), rpy.y(), rpy.z());
+    ASSERT_LT((back - R).cwiseAbs().maxCoeff(), 1e-12) << "R =\n" << R << "\nrpy = " << rpy.transpose();
+  }
+}
+
+}  // namespace

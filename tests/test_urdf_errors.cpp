@@ -1,0 +1,210 @@
+// Catalogue of malformed URDF files (tests/data/malformed/): each must raise a ParseError
+// whose message names the file, the line and the problem, and the CLI must exit non-zero
+// with that message on stderr.
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <typeinfo>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "shipped_models.hpp"
+#include "wbm/errors.hpp"
+#include "wbm/urdf_import.hpp"
+
+namespace {
+
+struct Case {
+  std::string file;  ///< in tests/data/malformed/
+  std::string expected;  ///< exact substring of the message (file name and line included)
+  std::string root;
+  std::vector<std::string> legs;
+};
+
+void PrintTo(const Case& c, std::ostream* os) { *os << c.file; }
+
+const std::vector<Case>& catalogue() {
+  static const std::vector<Case> cases = {
+      {"malformed_xml.urdf", "malformed_xml.urdf:11: malformed XML: Error reading end tag", "", {}},
+      {"wrong_root_element.urdf", "wrong_root_element.urdf:2: expected a <robot> root element, found <model>", "", {}},
+      {"no_links.urdf", "no_links.urdf:2: <robot> has no <link>", "", {}},
+      {"unknown_root_link.urdf", "unknown_root_link.urdf: root link 'nope' is not defined in the URDF", "nope", {}},
+      {"unknown_leg_link.urdf", "unknown_leg_link.urdf: leg link 'nope' is not defined in the URDF", "", {"leg", "nope"}},
+      {"leg_is_root.urdf", "leg_is_root.urdf: leg link 'base' is the root link", "", {"base"}},
+      {"missing_parent_link.urdf", "missing_parent_link.urdf:7: joint 'j1': parent link 'nowhere' is not defined", "", {}},
+      {"joint_without_parent.urdf", "joint_without_parent.urdf:7: joint 'j1' has no <parent link=...>", "", {}},
+      {"undefined_child_link.urdf", "undefined_child_link.urdf:13: joint 'j2': child link 'l2' is not defined", "", {}},
+      {"loop_two_parents.urdf",
+       "loop_two_parents.urdf:20: kinematic loop: link 'l2' is the child of joint 'j3' and of joint 'j2' (line 14)", "", {}},
+      {"loop_no_root.urdf", "loop_no_root.urdf:7: kinematic loop: every link has a parent joint, there is no root link", "",
+       {}},
+      {"loop_detached.urdf", "loop_detached.urdf:14: kinematic loop through link 'l1' and joint 'j2'", "", {}},
+      {"self_loop.urdf", "self_loop.urdf:13: joint 'j2' connects link 'l1' to itself (kinematic loop)", "", {}},
+      {"disconnected_two_roots.urdf",
+       "disconnected_two_roots.urdf:7: the links do not form one tree; root links: 'base' (line 3) 'island' (line 7)", "",
+       {}},
+      {"bad_axis_zero.urdf", "bad_axis_zero.urdf:12: joint 'j1': joint axis is zero", "", {}},
+      {"axis_not_unit.urdf", "axis_not_unit.urdf:10: joint 'j1': joint axis has norm 2 (expected a unit vector)", "", {}},
+      {"negative_mass.urdf", "negative_mass.urdf:8: link 'l1': negative mass -0.5", "", {}},
+      {"inertial_without_mass.urdf", "inertial_without_mass.urdf:7: link 'l1': <inertial> lacks <mass>", "", {}},
+      {"lower_above_upper.urdf", "lower_above_upper.urdf:11: joint 'j1': lower limit 1.5 is above upper limit -1.5", "",
+       {}},
+      {"zero_range.urdf", "zero_range.urdf:11: joint 'j1': no position range (lower == upper)", "", {}},
+      {"missing_limit.urdf", "missing_limit.urdf:7: joint 'j1' (revolute) has no <limit>", "", {}},
+      {"missing_velocity.urdf", "missing_velocity.urdf:11: joint 'j1': no speed limit (<limit velocity> must be > 0)", "",
+       {}},
+      {"unknown_joint_type.urdf", "unknown_joint_type.urdf:7: joint 'j1': unknown type 'hinge'", "", {}},
+      {"planar_joint.urdf", "planar_joint.urdf:7: joint 'j1': planar joints are not supported", "", {}},
+      {"bad_number.urdf", "bad_number.urdf:10: joint 'j1': <axis xyz> has 'x' where a finite number was expected", "", {}},
+      {"wrong_number_count.urdf", "wrong_number_count.urdf:12: joint 'j1': <origin xyz> needs 3 numbers, found 2", "", {}},
+      {"mimic_unknown_joint.urdf", "mimic_unknown_joint.urdf:14: joint 'j2' mimics joint 'j_missing', which is not defined",
+       "", {}},
+      {"mimic_of_locked_joint.urdf",
+       "mimic_of_locked_joint.urdf:15: joint 'j_arm' mimics 'j_leg', which is not a free joint of the imported body", "",
+       {"leg"}},
+      {"duplicate_link.urdf", "duplicate_link.urdf:7: duplicate link 'l1' (first defined on line 6)", "", {}},
+      {"duplicate_joint.urdf", "duplicate_joint.urdf:14: duplicate joint 'j1' (first defined on line 8)", "", {}},
+  };
+  return cases;
+}
+
+std::string malformed_path(const std::string& file) { return wbm_test::source_path("tests/data/malformed/" + file); }
+
+wbm::UrdfImportOptions options_of(const Case& c) {
+  wbm::UrdfImportOptions options;
+  options.root = c.root;
+  options.legs = c.legs;
+  return options;
+}
+
+class MalformedUrdf : public testing::TestWithParam<Case> {};
+
+TEST_P(MalformedUrdf, ThrowsParseErrorNamingFileAndLine) {
+  const Case& c = GetParam();
+  try {
+    wbm::load_urdf(malformed_path(c.file), options_of(c));
+    FAIL() << c.file << " was accepted";
+  } catch (const wbm::ParseError& e) {
+    const std::string message = e.what();
+    EXPECT_NE(message.find(c.expected), std::string::npos)
+        << "message:  " << message << "\nexpected: ..." << c.expected << "...";
+    // The message starts with the path as given.
+    EXPECT_EQ(message.rfind(malformed_path(c.file), 0), 0u) << message;
+  } catch (const std::exception& e) {
+    FAIL() << c.file << ": expected wbm::ParseError, got " << typeid(e).name() << ": " << e.what();
+  }
+}
+
+TEST_P(MalformedUrdf, ParseUrdfNamesTheGivenSource) {
+  const Case& c = GetParam();
+  std::ifstream in(malformed_path(c.file));
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::string source = "memory/" + c.file;
+  try {
+    wbm::parse_urdf(text.str(), options_of(c), source);
+    FAIL() << c.file << " was accepted";
+  } catch (const wbm::ParseError& e) {
+    EXPECT_NE(std::string(e.what()).find("memory/" + c.expected), std::string::npos) << e.what();
+  }
+}
+
+#ifdef WBM_CLI_PATH
+/// Runs a shell command; returns its exit status and what it wrote to stdout and stderr.
+struct CliRun {
+  int status = -1;
+  std::string out, err;
+};
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+CliRun run(const std::string& command, const std::string& tag) {
+  const std::string dir = testing::TempDir() + std::to_string(getpid()) + "_";
+  const std::string out = dir + "wbm_cli_" + tag + ".out", err = dir + "wbm_cli_" + tag + ".err";
+  const int raw = std::system((command + " >" + out + " 2>" + err).c_str());
+  CliRun r;
+  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  r.out = read_file(out);
+  r.err = read_file(err);
+  std::remove(out.c_str());
+  std::remove(err.c_str());
+  return r;
+}
+#endif
+
+TEST_P(MalformedUrdf, CliExitsNonZeroWithTheMessageOnStderr) {
+#ifndef WBM_CLI_PATH
+  GTEST_SKIP() << "the wbm command-line tool is not built (WBM_BUILD_APPS=OFF)";
+#else
+  const Case& c = GetParam();
+  std::string command = std::string("'") + WBM_CLI_PATH + "' model info '" + malformed_path(c.file) + "'";
+  if (!c.root.empty()) command += " --root " + c.root;
+  if (!c.legs.empty()) {
+    command += " --legs ";
+    for (size_t i = 0; i < c.legs.size(); ++i) {
+      if (i > 0) command += ',';
+      command += c.legs[i];
+    }
+  }
+  const CliRun r = run(command, c.file);
+  EXPECT_NE(r.status, 0) << command;
+  EXPECT_NE(r.err.find("wbm: error: "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find(c.expected), std::string::npos) << "stderr: " << r.err << "\nexpected: ..." << c.expected;
+  EXPECT_TRUE(r.out.empty()) << "stdout: " << r.out;
+#endif
+}
+
+std::string case_name(const testing::TestParamInfo<Case>& param) {
+  std::string name = param.param.file.substr(0, param.param.file.find('.'));
+  return name;
+}
+
+INSTANTIATE_TEST_SUITE_P(Catalogue, MalformedUrdf, testing::ValuesIn(catalogue()), case_name);
+
+TEST(MalformedUrdfCatalogue, CoversEveryFileAndAtLeastFourteenErrors) {
+  std::set<std::string> listed;
+  for (const Case& c : catalogue()) EXPECT_TRUE(listed.insert(c.file).second) << "listed twice: " << c.file;
+  std::set<std::string> on_disk;
+  for (const auto& entry : std::filesystem::directory_iterator(wbm_test::source_path("tests/data/malformed")))
+    if (entry.path().extension() == ".urdf") on_disk.insert(entry.path().filename().string());
+  EXPECT_EQ(listed, on_disk) << "every file in tests/data/malformed/ needs a catalogue entry";
+  EXPECT_GE(listed.size(), 14u);
+}
+
+TEST(MalformedUrdfCatalogue, OptionFilesAreValidWithoutTheBadOption) {
+  // The files used for option errors are themselves fine: the option is what fails.
+  for (const char* file : {"unknown_root_link.urdf", "unknown_leg_link.urdf", "leg_is_root.urdf"}) {
+    wbm::UrdfImportOptions options;
+    options.legs = {"leg"};
+    EXPECT_NO_THROW(wbm::load_urdf(malformed_path(file), options)) << file;
+  }
+}
+
+TEST(UrdfErrors, MissingFile) {
+  try {
+    wbm::load_urdf("/nonexistent/robot.urdf");
+    FAIL();
+  } catch (const wbm::ParseError& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/robot.urdf: cannot open the file"), std::string::npos) << e.what();
+  }
+}
+
+TEST(UrdfErrors, ParseErrorIsAModelErrorAndAnError) {
+  EXPECT_THROW(wbm::load_urdf(malformed_path("bad_axis_zero.urdf")), wbm::ModelError);
+  EXPECT_THROW(wbm::load_urdf(malformed_path("bad_axis_zero.urdf")), wbm::Error);
+}
+
+}  // namespace
