@@ -1,0 +1,160 @@
+// Controller cycle: allocation-free, convergence to reachable targets on the paper model
+// and two URDFs, and the trajectory filter's guarantees (section III).
+#include <memory>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "alloc_counter.hpp"
+#include "shipped_models.hpp"
+#include "test_util.hpp"
+#include "wbm/balance.hpp"
+#include "wbm/controller.hpp"
+#include "wbm/paper_model.hpp"
+#include "wbm/tasks/axis_task.hpp"
+#include "wbm/tasks/com_task.hpp"
+#include "wbm/tasks/position_task.hpp"
+#include "wbm/trajectory_filter.hpp"
+
+namespace {
+
+using namespace wbm;
+using Eigen::VectorXd;
+
+TEST(Controller, CycleAllocatesNothing) {
+  for (const char* id : {"paper", "g1_29dof"}) {
+    const wbm_test::ShippedModel& entry = wbm_test::shipped_model(id);
+    const Model model = entry.load();
+    Controller c(model);
+    c.add_task(std::make_unique<PositionTask>(model, "l_hand", entry.left_hand));
+    c.add_task(std::make_unique<AxisTask>(model, "l_grasp", entry.left_hand, "heel"));
+    c.add_task(std::make_unique<PositionTask>(model, "r_hand", entry.right_hand));
+    c.add_task(std::make_unique<AxisTask>(model, "r_grasp", entry.right_hand));
+    c.add_task(std::make_unique<CenterOfMassTask>(model, "com", "heel"));
+    c.reset(model.home());
+    Command cmd = c.make_command();
+    cmd.external_velocity = VectorXd::Zero(model.num_dofs());
+    BalanceModule balance(model, std::make_unique<CenterOfMassCentering>(4.0, 0.0));
+    const SupportPolygon support = SupportPolygon::standing(Vector2::Zero(), 0.0, balance.feet());
+    std::mt19937_64 rng(5);
+    std::uniform_real_distribution<double> u(-0.3, 0.3);
+    std::bernoulli_distribution coin(0.5);
+    wbm_test::AllocationCounter counter;
+    for (int k = 0; k < 3000; ++k) {
+      if (k % 100 == 0) {  // switch elements, constraints and targets at run time
+        for (int i = 0; i < cmd.task_active.size(); ++i) cmd.task_active[i] = coin(rng);
+        for (int i = 9; i < cmd.free_dofs.size(); ++i) cmd.free_dofs[i] = coin(rng) || coin(rng);
+        for (int i = 0; i < 3; ++i) cmd.targets[i] = c.values()[i] + u(rng);
+        cmd.targets[5] = k % 300 == 0 ? std::nan("") : cmd.targets[5];
+      }
+      balance.update(c.data(), support, 0.001, cmd);
+      c.update(cmd, 0.001);
+    }
+    EXPECT_EQ(counter.count(), 0) << id;
+  }
+}
+
+/// Targets from a random reachable configuration near home; start at home; converge.
+void converge(const wbm_test::ShippedModel& entry, unsigned seed, int targets) {
+  const Model model = entry.load();
+  Data data(model);
+  const int lf = model.frame_index(entry.left_hand), rf = model.frame_index(entry.right_hand);
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(-0.2, 0.2);
+  for (int t = 0; t < targets; ++t) {
+    VectorXd q_target = model.home();
+    for (int i = 0; i < model.num_dofs(); ++i)
+      if (model.dof(i).role == DofRole::kJoint && !model.dof(i).continuous)
+        q_target[i] = std::clamp(q_target[i] + u(rng) * model.dof(i).work_range, model.dof(i).lower, model.dof(i).upper);
+    forward_kinematics(model, data, q_target);
+    const Transform L = frame_pose(model, data, lf), R = frame_pose(model, data, rf);
+    Controller c(model);
+    c.add_task(std::make_unique<PositionTask>(model, "l_hand", entry.left_hand), {5.0, 0.5, 2});
+    c.add_task(std::make_unique<AxisTask>(model, "l_grasp", entry.left_hand), {5.0, 1.5, 2});
+    c.add_task(std::make_unique<PositionTask>(model, "r_hand", entry.right_hand), {5.0, 0.5, 2});
+    c.add_task(std::make_unique<AxisTask>(model, "r_grasp", entry.right_hand), {5.0, 1.5, 2});
+    c.reset(model.home());
+    Command cmd = c.make_command();
+    for (int i : {model.virtual_dofs().heel_x, model.virtual_dofs().heel_y, model.virtual_dofs().heel_yaw})
+      cmd.free_dofs[i] = false;
+    cmd.targets << L.p, L.R.col(2), R.p, R.R.col(2);
+    double pos = 0, ang = 0;
+    for (int k = 0; k < 4000; ++k) {
+      c.update(cmd, 0.002);
+      pos = std::max((c.values().segment<3>(0) - L.p).norm(), (c.values().segment<3>(6) - R.p).norm());
+      auto angle = [](const Vector3& a, const Vector3& b) { return std::atan2(a.cross(b).norm(), a.dot(b)); };
+      ang = std::max(angle(c.values().segment<3>(3), L.R.col(2)), angle(c.values().segment<3>(9), R.R.col(2)));
+      if (k > 200 && pos < 1e-4 && ang < 0.1 * M_PI / 180) break;
+    }
+    EXPECT_LT(pos, 1e-4) << entry.id << " target " << t << "\nq_target = " << q_target.transpose();
+    EXPECT_LT(ang * 180 / M_PI, 0.1) << entry.id << " target " << t << "\nq_target = " << q_target.transpose();
+  }
+}
+
+TEST(Controller, ConvergesPaperModel) { converge(wbm_test::shipped_model("paper"), 11, 25); }
+TEST(Controller, ConvergesG1) { converge(wbm_test::shipped_model("g1_29dof"), 12, 15); }
+TEST(Controller, ConvergesRomeo) { converge(wbm_test::shipped_model("romeo_small"), 13, 15); }
+
+TEST(TrajectoryFilter, NoOvershootSpeedLimitContinuousVelocity) {
+  std::mt19937_64 rng(17);
+  std::uniform_real_distribution<double> u(-1.0, 1.0), w(0.5, 20.0), s(0.05, 2.0);
+  for (int c = 0; c < 500; ++c) {
+    FilterParameters p{w(rng), s(rng), 2 + c % 3};
+    TrajectoryFilter f(TargetKind::kVector, 3, p);
+    const Vector3 start(u(rng), u(rng), u(rng));
+    f.reset(start, Vector3::Zero());
+    const Vector3 target(u(rng), u(rng), u(rng));
+    const double dt = 0.001;
+    double previous_distance = (target - start).norm();
+    Vector3 previous_velocity = Vector3::Zero();
+    const int steps = static_cast<int>(((target - start).norm() / p.max_speed + 25.0 / p.bandwidth) / dt);
+    for (int k = 0; k < steps; ++k) {
+      f.update(target, dt);
+      const Vector3 x = f.value();
+      const double distance = (target - x).norm();
+      ASSERT_LE(distance, previous_distance + 1e-12) << "overshoot, case " << c;
+      // Moves along the straight line from start to target.
+      ASSERT_LT((x - start).cross(target - start).norm(), 1e-9 * (1 + (target - start).squaredNorm())) << c;
+      ASSERT_LE(f.velocity().norm(), p.max_speed * (1 + 1e-9)) << "speed, case " << c;
+      ASSERT_LE((f.velocity() - previous_velocity).norm(), 2.0 * p.bandwidth * p.max_speed * dt * 1.0001 + 1e-12) << c;
+      previous_distance = distance;
+      previous_velocity = f.velocity();
+    }
+    EXPECT_LT(previous_distance, 1e-6) << c;
+  }
+}
+
+TEST(TrajectoryFilter, StartsFromTheActualValueAndVelocity) {
+  FilterParameters p{4.0, 1.0, 3};
+  TrajectoryFilter f(TargetKind::kVector, 2, p);
+  const Eigen::Vector2d x(0.3, -0.2), v(0.4, 0.1);
+  f.reset(x, v);
+  // Heading for a target on the current course: no jump of value or velocity.
+  f.update(x + 10 * v, 0.001);
+  EXPECT_LT((f.value() - (x + 0.001 * v)).norm(), 1e-6);
+  EXPECT_LT((f.velocity() - v).norm(), 1e-2);
+}
+
+TEST(TrajectoryFilter, DirectionsMoveOnGreatCirclesWithinTheAngularSpeed) {
+  std::mt19937_64 rng(23);
+  for (int c = 0; c < 300; ++c) {
+    FilterParameters p{6.0, 0.8, 2};
+    TrajectoryFilter f(TargetKind::kDirection, 3, p);
+    const Vector3 a = wbm_test::random_direction(3, rng);
+    const Vector3 b = c == 0 ? Vector3(-a) : Vector3(wbm_test::random_direction(3, rng));  // case 0: opposite
+    f.reset(a, Vector3::Zero());
+    const Vector3 normal = a.cross(b).normalized();
+    Vector3 previous = a;
+    for (int k = 0; k < 8000; ++k) {
+      f.update(b, 0.001);
+      const Vector3 x = f.value();
+      ASSERT_NEAR(x.norm(), 1.0, 1e-12) << c;
+      if (c > 0) { ASSERT_LT(std::abs(x.dot(normal)), 1e-9) << "left the great circle, case " << c; }
+      ASSERT_LE(std::acos(std::clamp(x.dot(previous), -1.0, 1.0)), p.max_speed * 0.001 * (1 + 1e-6) + 1e-12) << c;
+      previous = x;
+    }
+    EXPECT_LT((f.value() - b).norm(), 1e-6) << c;
+  }
+}
+
+}  // namespace

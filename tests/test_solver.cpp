@@ -1,0 +1,473 @@
+// Whole-body solver (section IV): identities of the weighted pseudo-inverse and null-space
+// projector, constraints, limits and the 2-dof axis task, as seeded property tests.
+// WBM_PROPERTY_CASES=<n> runs n cases per property instead of 10^4.
+#include <cstdlib>
+#include <memory>
+#include <random>
+#include <sstream>
+
+#include <gtest/gtest.h>
+
+#include "shipped_models.hpp"
+#include "test_util.hpp"
+#include "wbm/controller.hpp"
+#include "wbm/errors.hpp"
+#include "wbm/paper_model.hpp"
+#include "wbm/solver.hpp"
+#include "wbm/tasks/attitude_task.hpp"
+#include "wbm/tasks/axis_task.hpp"
+#include "wbm/tasks/com_task.hpp"
+#include "wbm/tasks/joint_task.hpp"
+#include "wbm/tasks/position_task.hpp"
+
+namespace {
+
+using namespace wbm;
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+
+int property_cases() {
+  const char* env = std::getenv("WBM_PROPERTY_CASES");
+  return env ? std::max(1, std::atoi(env)) : 10000;
+}
+
+std::string describe(const VectorXd& q, const Mask& rows, const Mask& free) {
+  std::ostringstream out;
+  out.precision(17);
+  out << "q = [" << q.transpose() << "]\nactive rows = [" << rows.cast<int>().transpose() << "]\nfree dofs = ["
+      << free.cast<int>().transpose() << "]";
+  return out.str();
+}
+
+/// The paper's full task vector (eq. 4): both hands' position and grasp axis, view axis.
+void add_paper_tasks(const Model& model, TaskStack& stack) {
+  stack.add(std::make_unique<PositionTask>(model, "l_hand", "l_hand_ref"));
+  stack.add(std::make_unique<AxisTask>(model, "l_grasp", "l_hand_ref"));
+  stack.add(std::make_unique<PositionTask>(model, "r_hand", "r_hand_ref"));
+  stack.add(std::make_unique<AxisTask>(model, "r_grasp", "r_hand_ref"));
+  stack.add(std::make_unique<AxisTask>(model, "view", "head_camera"));
+}
+
+/// Random targets near the current values, so that errors are moderate.
+void randomize_targets(const Model& model, const Data& data, TaskStack& stack, std::mt19937_64& rng) {
+  VectorXd x(stack.num_targets());
+  stack.values(model, data, x);
+  std::normal_distribution<double> n(0.0, 0.1);
+  for (int i = 0; i < x.size(); ++i) x[i] += n(rng);
+  stack.targets() = x;
+  stack.target_rates().setZero();
+}
+
+TEST(Solver, PseudoInverseAndNullSpaceIdentities) {
+  const Model model = make_paper_model();
+  Data data(model);
+  TaskStack stack(model);
+  add_paper_tasks(model, stack);
+  WholeBodySolver solver(model, stack.num_rows());
+  std::mt19937_64 rng(20051205);
+  std::bernoulli_distribution coin(0.7), freeze(0.15);
+  const int n = model.num_dofs();
+  int full_rank = 0;
+  for (int c = 0; c < property_cases(); ++c) {
+    const VectorXd q = wbm_test::random_configuration(model, rng);
+    forward_kinematics(model, data, q);
+    for (int r = 0; r < stack.num_rows(); ++r) stack.activation()[r] = coin(rng);
+    Mask free(n);
+    for (int i = 0; i < n; ++i) free[i] = !freeze(rng);
+    randomize_targets(model, data, stack, rng);
+    const int m = stack.assemble(model, data);
+    const MatrixXd J = stack.jacobian();
+    const MatrixXd Jp = solver.pseudo_inverse(J, free);
+    const SolverStatus st = solver.solve(J, stack.task_velocity(), VectorXd::Zero(n), free, 0.001);
+    ASSERT_TRUE(st.ok()) << describe(q, stack.activation(), free);
+    // The paper's construction (IV.D): frozen columns of J zeroed, N = E - J# J (eq. 7),
+    // and the diagonal elements of the frozen dofs set to zero.
+    MatrixXd Jfree = J;
+    for (int i = 0; i < n; ++i)
+      if (!free[i]) Jfree.col(i).setZero();
+    MatrixXd N = MatrixXd::Identity(n, n) - Jp * Jfree;
+    for (int i = 0; i < n; ++i)
+      if (!free[i]) N(i, i) = 0.0;
+    for (int i = 0; i < n; ++i)
+      if (!free[i]) {
+        ASSERT_EQ(Jp.row(i).norm(), 0.0) << "J# row of a frozen dof\n" << describe(q, stack.activation(), free);
+        ASSERT_EQ(solver.output().qdot[i], 0.0) << describe(q, stack.activation(), free);
+      }
+    ASSERT_TRUE(Jp.allFinite() && solver.output().qdot.allFinite()) << describe(q, stack.activation(), free);
+    if (m == 0 || st.has(kDamped)) continue;
+    ++full_rank;
+    const double scale = 1.0 + J.norm() * Jp.norm();
+    ASSERT_LT((J * Jp - MatrixXd::Identity(m, m)).norm(), 1e-9 * scale) << describe(q, stack.activation(), free);
+    ASSERT_LT((Jfree * N).norm(), 1e-9 * scale) << describe(q, stack.activation(), free);
+    ASSERT_LT((N * N - N).norm(), 1e-9 * scale * scale) << describe(q, stack.activation(), free);
+  }
+  // The identities must have been checked on most cases, not skipped.
+  EXPECT_GT(full_rank, property_cases() / 2);
+}
+
+TEST(Solver, NullSpaceMotionDoesNotMoveTheTask) {
+  // q_dot = J# x_dot - alpha N W^-1 grad: the null-space part is invisible to J.
+  const Model model = make_paper_model();
+  Data data(model);
+  TaskStack stack(model);
+  add_paper_tasks(model, stack);
+  SolverParameters p;
+  p.limit_speeds = false;
+  p.nullspace_rate_change_limit = 0.0;
+  WholeBodySolver solver(model, stack.num_rows(), p);
+  CubicJointLimitCriterion criterion(model, 0.1);
+  std::mt19937_64 rng(7);
+  std::bernoulli_distribution coin(0.5);
+  int checked = 0;
+  for (int c = 0; c < property_cases() / 10; ++c) {
+    const VectorXd q = wbm_test::random_configuration(model, rng);
+    forward_kinematics(model, data, q);
+    for (int r = 0; r < stack.num_rows(); ++r) stack.activation()[r] = coin(rng);
+    randomize_targets(model, data, stack, rng);
+    stack.assemble(model, data);
+    VectorXd grad(model.num_dofs());
+    criterion.gradient(q, grad);
+    const Mask free = Mask::Constant(model.num_dofs(), true);
+    const SolverStatus st = solver.solve(stack.jacobian(), stack.task_velocity(), grad, free, 0.001);
+    if (st.has(kDamped) || stack.jacobian().rows() == 0) continue;
+    const VectorXd Jn = stack.jacobian() * solver.output().qdot_null;
+    ASSERT_LT(Jn.norm(), 1e-9 * (1.0 + solver.output().qdot_null.norm())) << describe(q, stack.activation(), free);
+    ASSERT_LT((stack.jacobian() * solver.output().qdot_task - stack.task_velocity()).norm(),
+              1e-9 * (1.0 + stack.task_velocity().norm()));
+    ++checked;
+  }
+  EXPECT_GT(checked, property_cases() / 20);
+}
+
+/// Random controller runs: random targets (some unreachable), activation and constraint
+/// switching at random cycles, NaN targets now and then. Every cycle: no NaN, positions
+/// within limits, speeds within limits, frozen dofs exactly still.
+void random_controller_run(const Model& model, const std::string& l, const std::string& r, const std::string& head,
+                           unsigned seed, int cycles) {
+  Controller c(model);
+  c.add_task(std::make_unique<PositionTask>(model, "l_hand", l));
+  c.add_task(std::make_unique<AxisTask>(model, "l_grasp", l));
+  c.add_task(std::make_unique<PositionTask>(model, "r_hand", r));
+  c.add_task(std::make_unique<AxisTask>(model, "r_grasp", r));
+  if (!head.empty()) c.add_task(std::make_unique<AxisTask>(model, "view", head));
+  std::mt19937_64 rng(seed);
+  c.reset(model.home());
+  Command cmd = c.make_command();
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::bernoulli_distribution rare(0.01), coin(0.5), freeze(0.1);
+  const double dt = 0.002;
+  for (int k = 0; k < cycles; ++k) {
+    if (rare(rng)) {
+      for (int i = 0; i < cmd.targets.size(); ++i) cmd.targets[i] = c.values()[i] + 0.6 * u(rng);
+      for (int i = 0; i < cmd.task_active.size(); ++i) cmd.task_active[i] = coin(rng);
+      for (int i = 0; i < cmd.free_dofs.size(); ++i) cmd.free_dofs[i] = !freeze(rng);
+      if (coin(rng)) cmd.targets[0] = std::nan("");
+    }
+    const VectorXd q_before = c.q();
+    const ControllerStatus st = c.update(cmd, dt);
+    const VectorXd& q = c.q();
+    ASSERT_TRUE(q.allFinite() && c.qdot().allFinite()) << "cycle " << k;
+    for (int i = 0; i < model.num_dofs(); ++i) {
+      ASSERT_GE(q[i], model.dof(i).lower) << model.dof(i).name << " cycle " << k;
+      ASSERT_LE(q[i], model.dof(i).upper) << model.dof(i).name << " cycle " << k;
+      ASSERT_LE(std::abs(c.qdot()[i]), model.dof(i).max_speed * (1 + 1e-9)) << model.dof(i).name << " cycle " << k;
+      if (!cmd.free_dofs[i]) { ASSERT_EQ(q[i], q_before[i]) << "frozen " << model.dof(i).name << " cycle " << k; }
+    }
+    if (!st.ok()) { ASSERT_EQ(q, q_before); }
+  }
+}
+
+TEST(Controller, RandomRunsKeepLimitsPaperModel) {
+  random_controller_run(make_paper_model(), "l_hand_ref", "r_hand_ref", "head_camera", 1, property_cases());
+}
+
+TEST(Controller, RandomRunsKeepLimitsG1) {
+  const wbm_test::ShippedModel& g1 = wbm_test::shipped_model("g1_29dof");
+  random_controller_run(g1.load(), g1.left_hand, g1.right_hand, g1.head, 2, property_cases());
+}
+
+/// phi of eq. (15) between the frame's z-axis and a target, for finite differences.
+double axis_angle(const Model& model, Data& data, const VectorXd& q, int frame, const Vector3& target) {
+  forward_kinematics(model, data, q);
+  const Vector3 a = frame_pose(model, data, frame).R.col(2);
+  return std::atan2(a.cross(target.normalized()).norm(), a.dot(target.normalized()));
+}
+
+TEST(AxisTask, JacobianMatchesFiniteDifferencesOfPhiAndAxis) {
+  for (const wbm_test::ShippedModel& entry : wbm_test::shipped_models()) {
+    if (entry.left_hand.empty()) continue;
+    const Model model = entry.load();
+    Data data(model);
+    AxisTask task(model, "axis", entry.left_hand, "heel");
+    const int frame = model.frame_index(entry.left_hand);
+    std::mt19937_64 rng(99);
+    MatrixXd J(2, model.num_dofs());
+    VectorXd e(2), rate(2);
+    const int cases = std::max(50, property_cases() / 50);
+    for (int c = 0; c < cases; ++c) {
+      const VectorXd q = wbm_test::random_configuration(model, rng);
+      forward_kinematics(model, data, q);
+      const Transform X_WH = frame_pose(model, data, model.frame_index("heel"));
+      const Vector3 target_R = wbm_test::random_direction(3, rng);  // in the heel frame
+      task.evaluate(model, data, target_R, Vector3::Zero(), J, e, rate);
+      const Vector3 target_W = X_WH.R * target_R;
+      const double phi = axis_angle(model, data, q, frame, target_W);
+      if (phi < 1e-3 || phi > M_PI - 1e-3) continue;  // degenerate set: tested separately
+      ASSERT_NEAR(e[1], phi, 1e-12);
+      ASSERT_EQ(e[0], 0.0);
+      const VectorXd v = wbm_test::random_direction(model.num_dofs(), rng);
+      const double h = 1e-6;
+      // The heel frame moves with q too: compare phi in the heel frame.
+      auto phi_heel = [&](const VectorXd& qq) {
+        forward_kinematics(model, data, qq);
+        const Transform X = frame_pose(model, data, model.frame_index("heel")).inverse() * frame_pose(model, data, frame);
+        const Vector3 a = X.R.col(2);
+        return std::atan2(a.cross(target_R.normalized()).norm(), a.dot(target_R.normalized()));
+      };
+      const double dphi = (phi_heel(q + h * v) - phi_heel(q - h * v)) / (2 * h);
+      // Rotating about e_y moves a_g towards a_t: d(phi)/dt = -row_y q_dot.
+      ASSERT_NEAR(dphi, -(J.row(1) * v)(0), 1e-6) << entry.id << " case " << c;
+    }
+  }
+}
+
+TEST(AxisTask, DegenerateCasesAreDefinedAndContinuous) {
+  const Model model = make_paper_model();
+  Data data(model);
+  TaskStack stack(model);
+  stack.add(std::make_unique<AxisTask>(model, "grasp", "l_hand_ref"));
+  WholeBodySolver solver(model, 2);
+  const Mask free = Mask::Constant(model.num_dofs(), true);
+  forward_kinematics(model, data, model.home());
+  const Vector3 a = frame_pose(model, data, model.frame_index("l_hand_ref")).R.col(2);
+  const Vector3 perp = a.unitOrthogonal();
+  auto solve_for = [&](const Vector3& target) {
+    stack.targets() = target;
+    stack.assemble(model, data);
+    EXPECT_TRUE(stack.jacobian().allFinite());
+    EXPECT_TRUE(stack.task_velocity().allFinite());
+    solver.reset();
+    solver.solve(stack.jacobian(), stack.task_velocity(), VectorXd::Zero(model.num_dofs()), free, 0.001);
+    return VectorXd(solver.output().qdot);
+  };
+  // Coinciding axes: zero error, zero motion, and continuous: a tiny offset gives a tiny q_dot.
+  const VectorXd at = solve_for(a);
+  EXPECT_EQ(at.norm(), 0.0);
+  for (double eps : {1e-6, 1e-9, 1e-12}) {
+    const Vector3 near = Eigen::AngleAxisd(eps, perp) * a;
+    EXPECT_LT((solve_for(near) - at).norm(), 1e3 * eps + 1e-12) << "eps " << eps;
+  }
+  // Opposite axes: phi = pi, a finite, deterministic rotation.
+  double phi = 0.0;
+  const Matrix3 sl = AxisTask::sl_frame(a, -a, perp, &phi);
+  EXPECT_NEAR(phi, M_PI, 1e-12);
+  EXPECT_TRUE(sl.allFinite());
+  EXPECT_NEAR((sl.transpose() * sl - Matrix3::Identity()).norm(), 0.0, 1e-12);
+  const VectorXd opposite = solve_for(-a);
+  EXPECT_TRUE(opposite.allFinite());
+  EXPECT_GT(opposite.norm(), 0.0);
+  EXPECT_EQ(solve_for(-a), opposite);
+}
+
+TEST(Solver, BoundedAndContinuousThroughASingularity) {
+  // Stretch the left arm through elbow = 0 (its upper limit, the singular configuration)
+  // with the hand commanded 0.3 m beyond reach: q_dot stays bounded and changes
+  // continuously with the configuration.
+  const Model model = make_paper_model();
+  Data data(model);
+  TaskStack stack(model);
+  stack.add(std::make_unique<PositionTask>(model, "l_hand", "l_hand_ref"));
+  Mask free = Mask::Constant(model.num_dofs(), false);
+  for (const char* d : {"l_shoulder_pitch", "l_shoulder_roll", "l_shoulder_yaw", "l_elbow", "l_hand_rot"})
+    free[model.dof_index(d)] = true;
+  SolverParameters p;
+  p.limit_speeds = false;
+  p.nullspace_rate_change_limit = 0.0;
+  WholeBodySolver solver(model, 3, p);
+  VectorXd q = model.home();
+  const int elbow = model.dof_index("l_elbow");
+  const int steps = 2000;
+  std::vector<VectorXd> qdots;
+  double max_xdot = 0.0, max_range = 0.0;
+  int damped = 0;
+  for (int i = 0; i < model.num_dofs(); ++i) max_range = std::max(max_range, model.dof(i).work_range);
+  for (int k = 0; k <= steps; ++k) {
+    q[elbow] = -0.3 + 0.3 * k / steps;  // to the straight arm
+    forward_kinematics(model, data, q);
+    const Vector3 p_hand = frame_pose(model, data, model.frame_index("l_hand_ref")).p;
+    const Vector3 p_shoulder = data.X_WB[model.frame(model.frame_index("l_shoulder_1")).body].p;
+    stack.targets() = p_hand + 0.3 * (p_hand - p_shoulder).normalized();
+    stack.assemble(model, data);
+    max_xdot = std::max(max_xdot, stack.task_velocity().norm());
+    const SolverStatus st = solver.solve(stack.jacobian(), stack.task_velocity(), VectorXd::Zero(model.num_dofs()), free, 0.001);
+    damped += st.has(kDamped) ? 1 : 0;
+    ASSERT_TRUE(solver.output().qdot.allFinite());
+    qdots.push_back(solver.output().qdot);
+  }
+  // Bounded: the damped inverse amplifies at most 1 / (2 lambda_max) in range-normalised units.
+  double max_qdot = 0.0, max_step = 0.0;
+  for (size_t k = 0; k < qdots.size(); ++k) {
+    max_qdot = std::max(max_qdot, qdots[k].norm());
+    if (k > 0) max_step = std::max(max_step, (qdots[k] - qdots[k - 1]).norm());
+  }
+  EXPECT_LT(max_qdot, max_xdot * max_range / (2 * p.max_damping));
+  // Continuous: a 0.15 mrad change of the elbow changes q_dot by a small fraction of it.
+  EXPECT_LT(max_step, 0.02 * max_qdot);
+  EXPECT_GT(damped, 0);  // the singular region was reached and reported
+}
+
+TEST(Solver, MoreActiveRowsThanFreeDofs) {
+  const Model model = make_paper_model();
+  Data data(model);
+  TaskStack stack(model);
+  add_paper_tasks(model, stack);
+  WholeBodySolver solver(model, stack.num_rows());
+  Mask free = Mask::Constant(model.num_dofs(), false);
+  for (int i = 9; i < 14; ++i) free[i] = true;  // only the left arm: 5 dofs for 12 rows
+  forward_kinematics(model, data, model.home());
+  std::mt19937_64 rng(3);
+  randomize_targets(model, data, stack, rng);
+  stack.assemble(model, data);
+  const SolverStatus st = solver.solve(stack.jacobian(), stack.task_velocity(), VectorXd::Zero(model.num_dofs()), free, 0.001);
+  EXPECT_TRUE(st.has(kOverdetermined));
+  EXPECT_TRUE(st.has(kDamped));
+  EXPECT_TRUE(solver.output().qdot.allFinite());
+  for (int i = 0; i < model.num_dofs(); ++i)
+    if (!free[i]) { EXPECT_EQ(solver.output().qdot[i], 0.0); }
+}
+
+TEST(Solver, InvalidInputsGiveZeroVelocityAndAStatus) {
+  const Model model = make_paper_model();
+  WholeBodySolver solver(model, 3);
+  const int n = model.num_dofs();
+  const MatrixXd J = MatrixXd::Ones(3, n);
+  const VectorXd xdot = VectorXd::Ones(3);
+  const Mask free = Mask::Constant(n, true);
+  VectorXd nan_x = xdot;
+  nan_x[1] = std::nan("");
+  EXPECT_TRUE(solver.solve(J, nan_x, VectorXd::Zero(n), free, 0.001).has(kInvalidInput));
+  EXPECT_EQ(solver.output().qdot.norm(), 0.0);
+  EXPECT_TRUE(solver.solve(J, xdot, VectorXd::Zero(n), free, std::nan("")).has(kInvalidInput));
+  EXPECT_TRUE(solver.solve(J, xdot, VectorXd::Zero(n), free, -1.0).has(kInvalidInput));
+  EXPECT_TRUE(solver.solve(J, xdot, VectorXd::Zero(n), Mask::Constant(n - 1, true), 0.001).has(kInvalidInput));
+  EXPECT_TRUE(solver.solve(MatrixXd::Ones(4, n), VectorXd::Ones(4), VectorXd::Zero(n), free, 0.001).has(kInvalidInput));
+  EXPECT_TRUE(solver.solve(J, xdot, VectorXd::Zero(n), Mask::Constant(n, false), 0.001).has(kAllDofsFrozen));
+  EXPECT_EQ(solver.output().qdot.norm(), 0.0);
+  const SolverStatus none = solver.solve(MatrixXd::Zero(0, n), VectorXd::Zero(0), VectorXd::Ones(n), free, 0.001);
+  EXPECT_TRUE(none.has(kNoActiveRows));
+  EXPECT_TRUE(solver.output().qdot.allFinite());
+}
+
+TEST(Solver, SpeedScalingAndJerkLimit) {
+  const Model model = make_paper_model();
+  const int n = model.num_dofs();
+  SolverParameters p;
+  p.nullspace_rate_change_limit = 10.0;
+  WholeBodySolver solver(model, 1, p);
+  const Mask free = Mask::Constant(n, true);
+  // A huge task velocity: all of q_dot is scaled to the speed limits.
+  MatrixXd J = MatrixXd::Zero(1, n);
+  J(0, model.dof_index("l_elbow")) = 1.0;
+  SolverStatus st = solver.solve(J, VectorXd::Constant(1, 100.0), VectorXd::Zero(n), free, 0.001);
+  EXPECT_TRUE(st.has(kTaskSpeedLimited));
+  EXPECT_NEAR(solver.output().qdot[model.dof_index("l_elbow")], model.dof(model.dof_index("l_elbow")).max_speed, 1e-12);
+  // A large gradient from rest: the null-space velocity ramps up at the jerk limit.
+  solver.reset();
+  const VectorXd grad = VectorXd::Constant(n, 50.0);
+  const MatrixXd none = MatrixXd::Zero(0, n);
+  VectorXd previous = VectorXd::Zero(n);
+  for (int k = 0; k < 50; ++k) {
+    st = solver.solve(none, VectorXd::Zero(0), grad, free, 0.001);
+    const VectorXd& v = solver.output().qdot;
+    for (int i = 0; i < n; ++i) {
+      ASSERT_LE(std::abs(v[i] - previous[i]), 10.0 * model.dof(i).max_speed * 0.001 * (1 + 1e-9)) << k;
+      ASSERT_LE(std::abs(v[i]), model.dof(i).max_speed * (1 + 1e-12));
+    }
+    previous = v;
+  }
+  EXPECT_TRUE(st.has(kNullSpaceSpeedScaled) || st.has(kNullSpaceJerkLimited));
+}
+
+TEST(Controller, ConfigurationErrorsThrow) {
+  const Model model = make_paper_model();
+  EXPECT_THROW(PositionTask(model, "x", "no_such_frame"), ModelError);
+  EXPECT_THROW(AxisTask(model, "x", "l_hand_ref", "no_such_reference"), ModelError);
+  EXPECT_THROW(JointTask(model, "x", {"no_such_dof"}), ModelError);
+  EXPECT_THROW(JointTask(model, "x", {}), ConfigError);
+  PositionTask task(model, "x", "l_hand_ref");
+  EXPECT_THROW(task.set_gain(-1.0), ConfigError);
+  EXPECT_THROW(task.set_gain(std::nan("")), ConfigError);
+  SolverParameters bad;
+  bad.max_damping = -1.0;
+  EXPECT_THROW(Controller(model, bad), ConfigError);
+  EXPECT_THROW(CubicJointLimitCriterion(model, 1.0), ConfigError);
+  EXPECT_THROW(JointCenterCriterion(model, VectorXd::Ones(3)), ConfigError);
+  Controller c(model);
+  c.add_task(std::make_unique<PositionTask>(model, "a", "l_hand_ref"));
+  EXPECT_THROW(c.add_task(std::make_unique<PositionTask>(model, "a", "r_hand_ref")), ConfigError);
+  FilterParameters f;
+  f.max_speed = 0.0;
+  EXPECT_THROW(c.add_task(std::make_unique<PositionTask>(model, "b", "r_hand_ref"), f), ConfigError);
+  VectorXd q = model.home();
+  q[3] = 10.0;
+  EXPECT_THROW(c.reset(q), ModelError);
+}
+
+TEST(Controller, BadCommandsHaveDefinedResults) {
+  const Model model = make_paper_model();
+  Controller c(model);
+  c.add_task(std::make_unique<PositionTask>(model, "l_hand", "l_hand_ref"));
+  c.add_task(std::make_unique<AxisTask>(model, "view", "head_camera"));
+  c.reset(model.home());
+  Command cmd = c.make_command();
+  const VectorXd q0 = c.q();
+  // NaN target of an active element: flagged, the element keeps its previous target.
+  cmd.targets[0] = std::nan("");
+  ControllerStatus st = c.update(cmd, 0.001);
+  EXPECT_TRUE(st.has(kInvalidTarget));
+  EXPECT_TRUE(c.q().allFinite());
+  // Infinite and zero-direction targets likewise.
+  cmd.targets[0] = std::numeric_limits<double>::infinity();
+  EXPECT_TRUE(c.update(cmd, 0.001).has(kInvalidTarget));
+  cmd.targets = c.values();
+  cmd.targets.segment<3>(3).setZero();
+  EXPECT_TRUE(c.update(cmd, 0.001).has(kInvalidTarget));
+  cmd.targets = c.values();
+  // Bad dt: nothing moves.
+  const VectorXd q1 = c.q();
+  for (double dt : {0.0, -0.001, std::nan(""), std::numeric_limits<double>::infinity()}) {
+    st = c.update(cmd, dt);
+    EXPECT_TRUE(st.has(kInvalidCommand)) << dt;
+    EXPECT_EQ(c.q(), q1);
+  }
+  // Activation vector of the wrong length.
+  Command wrong = cmd;
+  wrong.task_active = Mask::Constant(4, true);
+  EXPECT_TRUE(c.update(wrong, 0.001).has(kInvalidCommand));
+  EXPECT_EQ(c.q(), q1);
+  // All dofs frozen: nothing moves, and the status says so.
+  Command frozen = cmd;
+  frozen.free_dofs.setConstant(false);
+  frozen.targets[2] += 0.1;
+  EXPECT_TRUE(c.update(frozen, 0.001).has(kAllDofsFrozen));
+  EXPECT_EQ(c.q(), q1);
+  // No active rows: only null-space motion, flagged.
+  Command idle = cmd;
+  idle.task_active.setConstant(false);
+  EXPECT_TRUE(c.update(idle, 0.001).has(kNoActiveRows));
+  // Unreachable target (20 m up): bounded, within limits, no NaN.
+  Command far = cmd;
+  far.targets[2] = 20.0;
+  for (int k = 0; k < 2000; ++k) {
+    st = c.update(far, 0.001);
+    ASSERT_TRUE(c.q().allFinite());
+  }
+  EXPECT_TRUE(st.ok());
+  for (int i = 0; i < model.num_dofs(); ++i) {
+    EXPECT_GE(c.q()[i], model.dof(i).lower);
+    EXPECT_LE(c.q()[i], model.dof(i).upper);
+  }
+  (void)q0;
+}
+
+}  // namespace
