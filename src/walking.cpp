@@ -93,34 +93,40 @@ std::uint32_t WalkingModule::update(const Controller& c, const ControllerStatus&
       if (active[r0 + i]) error = std::max(error, std::abs(command.targets[t0 + i] - values[t0 + i]));
   }
 
+  // Stalled: the error has not fallen by 1 % for stall_time. A growing error (a target
+  // moving away) is not a stall; it restarts the measurement.
+  if (error < best_error_ * 0.99 || error > best_error_) {
+    best_error_ = error;
+    stall_timer_ = 0.0;
+  } else {
+    stall_timer_ += dt;
+  }
+  const bool stalled = p_.stall_time > 0.0 && stall_timer_ > p_.stall_time;
+
   if (!walking_) {
     set_heel_free(command, false);
     if (given_up_) return flags | kWalkGivenUp;
     const bool limit = p_.trigger_on_joint_limit && last.has(kJointLimitClamped | kDofAtLimitFrozen);
     const bool cost = p_.cost_threshold > 0.0 && c.nullspace_cost() > p_.cost_threshold;
-    // Stalled: the error has not fallen by 1 % for stall_time. A growing error (a target
-    // moving away) is not a stall; it restarts the measurement.
-    if (error < best_error_ * 0.99 || error > best_error_) {
-      best_error_ = error;
-      stall_timer_ = 0.0;
-    } else {
-      stall_timer_ += dt;
-    }
-    const bool stall = p_.stall_time > 0.0 && stall_timer_ > p_.stall_time;
-    const bool wanted = error > p_.error_tolerance && (limit || cost || stall);
+    const bool wanted = error > p_.error_tolerance && (limit || cost || stalled);
     trigger_timer_ = wanted ? trigger_timer_ + dt : 0.0;
     if (trigger_timer_ < p_.trigger_time || trigger_timer_ == 0.0) return flags;
     walking_ = true;
+    finishing_ = false;
     steps_this_walk_ = 0;
     converge_timer_ = 0.0;
     step_timer_ = 0.0;
     trigger_timer_ = 0.0;
-    walk_start_heel_ = heel;
+    stall_timer_ = 0.0;
+    best_error_ = error;
+    error_at_trigger_ = error;
     flags |= kWalkTriggered;
   }
 
   flags |= kWalking;
-  set_heel_free(command, true);
+  // A walk that no longer reduces the error ends: the heel stays where it is.
+  if (stalled) finishing_ = true;
+  set_heel_free(command, !finishing_);
   // Step generator: every step_duration the swing foot lands at the limited step towards
   // its place beside the floating heel; the feet alternate.
   step_timer_ += dt;
@@ -129,10 +135,7 @@ std::uint32_t WalkingModule::update(const Controller& c, const ControllerStatus&
     const FootPose& support = next_left_ ? right_ : left_;
     FootPose& swing = next_left_ ? left_ : right_;
     const FootPose target = stance_target(next_left_, heel, yaw);
-    const bool needed = (target.position - swing.position).norm() >= p_.feet_tolerance ||
-                        std::abs(wrap(target.yaw - swing.yaw)) >= 2 * p_.feet_tolerance ||
-                        !feet_at(heel, yaw);
-    if (needed) {
+    if (!feet_at(heel, yaw)) {
       swing = limited_step(next_left_, support, target);
       footsteps_.push_back({time, next_left_, swing});
       ++steps_this_walk_;
@@ -141,16 +144,16 @@ std::uint32_t WalkingModule::update(const Controller& c, const ControllerStatus&
   }
   double heel_speed = 0.0;
   for (int d : heel_dofs_) heel_speed = std::max(heel_speed, std::abs(c.qdot()[d]));
-  converge_timer_ = heel_speed < p_.converged_speed ? converge_timer_ + dt : 0.0;
+  converge_timer_ = heel_speed < p_.converged_speed || finishing_ ? converge_timer_ + dt : 0.0;
   const bool done = converge_timer_ >= p_.converge_time && feet_at(heel, yaw);
   const bool too_many = steps_this_walk_ >= p_.max_steps;
   if (done || too_many) {
     walking_ = false;
+    finishing_ = false;
     set_heel_free(command, false);
     flags |= kWalkFinished;
     if (too_many) flags |= kStepLimitReached;
-    // No progress: the heel hardly moved. After max_walks of those, stop trying.
-    walks_without_progress_ = (heel - walk_start_heel_).norm() < p_.feet_tolerance ? walks_without_progress_ + 1 : 0;
+    walks_without_progress_ = error > 0.9 * error_at_trigger_ ? walks_without_progress_ + 1 : 0;
     if (too_many) walks_without_progress_ = p_.max_walks;
     if (walks_without_progress_ >= p_.max_walks) given_up_ = true;
     best_error_ = 1e300;

@@ -34,6 +34,9 @@ struct WalkingParameters {
   double feet_tolerance = 0.02;     ///< [m]; angles: feet_tolerance [rad] * 2
   int max_steps = 60;               ///< per walk: no endless stepping
   int max_walks = 3;                ///< walks per target without progress before giving up
+  /// A walk whose task error has not fallen by 1 % for stall_time stops: the heel is frozen
+  /// where it is and the feet finish their steps to it. A walk that did not reduce the
+  /// error to below 90 % of its value at the trigger counts as a walk without progress.
 };
 
 enum WalkingFlag : std::uint32_t {
@@ -83,13 +86,14 @@ class WalkingModule {
   WalkingParameters p_;
   int heel_dofs_[3];
   bool walking_ = false;
+  bool finishing_ = false;  // heel frozen again, feet still stepping to it
+  double error_at_trigger_ = 0.0;
   bool given_up_ = false;
   int walks_without_progress_ = 0;
   int steps_this_walk_ = 0;
   double trigger_timer_ = 0.0, converge_timer_ = 0.0, stall_timer_ = 0.0, best_error_ = 1e300;
   double step_timer_ = 0.0;
   bool next_left_ = true;
-  Vector2 walk_start_heel_ = Vector2::Zero();
   FootPose left_, right_;
   std::vector<Footstep> footsteps_;
 };

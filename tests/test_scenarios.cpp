@@ -1,0 +1,309 @@
+// The paper's experiments (Figs. 4 and 7), balance (section V) and walking (section VI),
+// run as the shipped scenarios, each checked against what the paper shows.
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+#include "runner.hpp"
+#include "scenario.hpp"
+#include "shipped_models.hpp"
+#include "wbm/balance.hpp"
+#include "wbm/errors.hpp"
+#include "wbm/paper_model.hpp"
+#include "wbm/tasks/position_task.hpp"
+
+namespace {
+
+using namespace wbm;
+using Eigen::VectorXd;
+
+Scenario shipped(const std::string& name) { return load_scenario(wbm_test::source_path("scenarios/" + name + ".yaml")); }
+
+double deg(double rad) { return rad * 180.0 / M_PI; }
+
+/// Largest |q_ddot| over the run (from the recorded velocities; the robot starts at rest).
+double max_acceleration(const ScenarioRun& run) {
+  double a = 0.0;
+  for (int k = 1; k < run.num_cycles(); ++k) a = std::max(a, (run.qdot[k] - run.qdot[k - 1]).cwiseAbs().maxCoeff());
+  return a / run.scenario.dt;
+}
+
+TEST(PaperFig7, TopRightHandTargetWithHeadAndLeftArmAtTheirCentres) {
+  const auto run = run_scenario(shipped("fig7_top_right_hand"));
+  const Model& m = *run->model;
+  for (const char* d : {"head_pan", "head_tilt", "l_shoulder_pitch", "l_shoulder_roll", "l_shoulder_yaw", "l_elbow", "l_hand_rot"}) {
+    const int i = m.dof_index(d);
+    for (int k = 0; k < run->num_cycles(); ++k)
+      ASSERT_LT(deg(std::abs(run->q[k][i] - m.dof(i).center())), 1.0) << d << " at t = " << run->time[k];
+  }
+  const int last = run->num_cycles() - 1;
+  EXPECT_LT(run->error[last][run->element("r_hand")], 1e-4);  // 0.1 mm
+  // The right arm, the upper-body height (by 1 mm or more; its 12 cm range gives it a small
+  // weight in W) and its attitude contribute.
+  auto moved = [&](const char* d) { return std::abs(run->q[last][m.dof_index(d)] - run->q[0][m.dof_index(d)]); };
+  for (const char* d : {"r_shoulder_pitch", "r_elbow"}) EXPECT_GT(moved(d), 0.05) << d;
+  EXPECT_GT(moved("upper_body_z"), 0.001);
+  EXPECT_GT(moved("upper_body_pitch") + moved("upper_body_yaw") + moved("upper_body_roll"), 0.02);
+}
+
+TEST(PaperFig7, MiddleGazeSweepWithBothHandsHeld) {
+  const auto run = run_scenario(shipped("fig7_middle_gaze_sweep"));
+  const Model& m = *run->model;
+  EXPECT_EQ(run->controller->tasks().num_rows(), 12);
+  double yaw_min = 0, yaw_max = 0;
+  for (int k = 0; k < run->num_cycles(); ++k) {
+    ASSERT_EQ(run->active[k].sum(), 5.0);  // all 5 elements, 12 rows
+    for (const char* hand : {"l_hand", "r_hand"}) ASSERT_LT(run->error[k][run->element(hand)], 1e-3) << hand;
+    for (const char* axis : {"l_grasp", "r_grasp"}) ASSERT_LT(deg(run->error[k][run->element(axis)]), 1.0) << axis;
+    ASSERT_EQ(run->flags[k] & (kDamped | kTaskSpeedLimited | kInvalidInput), 0u) << "t = " << run->time[k];
+    const double yaw = run->q[k][m.dof_index("upper_body_yaw")];
+    yaw_min = std::min(yaw_min, yaw);
+    yaw_max = std::max(yaw_max, yaw);
+  }
+  // The upper body turns about the vertical axis, to both sides.
+  EXPECT_GT(yaw_max, 0.05);
+  EXPECT_LT(yaw_min, -0.05);
+  EXPECT_LT(deg(run->error.back()[run->element("view")]), 1.0);
+}
+
+TEST(PaperFig7, BottomLeftHandHighTarget) {
+  const auto run = run_scenario(shipped("fig7_bottom_left_hand_high"));
+  const Model& m = *run->model;
+  const int last = run->num_cycles() - 1;
+  EXPECT_LT(run->error[last][run->element("l_hand")], 1e-3);
+  // x and y are free (null space): they move by themselves.
+  const VectorXd start = run->actual_of("l_hand", 0), end = run->actual_of("l_hand", last);
+  EXPECT_GT((end - start).head<2>().norm(), 0.02);
+  // The upper body rotates as the arm nears a straight configuration.
+  const VectorXd& q = run->q[last];
+  const double rotation = std::abs(q[m.dof_index("upper_body_roll")]) + std::abs(q[m.dof_index("upper_body_pitch")]) +
+                          std::abs(q[m.dof_index("upper_body_yaw")]);
+  EXPECT_GT(rotation, 0.05);
+  // Whole-body Jacobian far better conditioned than the arm's alone.
+  Data d(m);
+  forward_kinematics(m, d, q);
+  const int f = m.frame_index("l_hand_ref");
+  const double whole = position_condition_number(m, d, f, false), arm = position_condition_number(m, d, f, true);
+  std::cout << "condition numbers at the end: whole body " << whole << ", joints only " << arm << "\n";
+  EXPECT_LT(whole, arm);
+}
+
+TEST(PaperFig4, SwitchingKeepsJointAccelerationsBoundedWithTheJerkLimit) {
+  // The bound, dt = 1 ms: |q_ddot| <= 100 rad/s^2 for every dof over the whole run
+  // (start from rest included). Without the jerk limit the null-space motion starts with
+  // a velocity jump of up to the speed limit in one cycle.
+  constexpr double kBound = 100.0;
+  for (const char* name : {"fig4a_switch_on_hand_z", "fig4b_switch_to_full_hand"}) {
+    Scenario s = shipped(name);
+    const auto with = run_scenario(s);
+    s.solver.nullspace_rate_change_limit = 0.0;
+    const auto without = run_scenario(s);
+    const double a_with = max_acceleration(*with), a_without = max_acceleration(*without);
+    std::cout << name << ": max |q_ddot| " << a_with << " rad/s^2 with the jerk limit, " << a_without << " without\n";
+    EXPECT_LE(a_with, kBound) << name;
+    EXPECT_GT(a_without, kBound) << name;
+    // The switched tasks are reached either way.
+    for (int e = 0; e < with->controller->tasks().num_elements(); ++e)
+      if (with->active.back()[e] > 0) {
+        EXPECT_LT(with->error.back()[e], 2e-3) << name;
+      }
+  }
+}
+
+TEST(Balance, CompensationKeepsTrackingAsAccurateAsWithoutBalance) {
+  Scenario s = shipped("balance_hands_forward");
+  const auto with = run_scenario(s);
+  s.balance.compensate = false;
+  const auto uncompensated = run_scenario(s);
+  s.balance.enabled = false;
+  const auto without = run_scenario(s);
+  auto worst = [](const ScenarioRun& r) {  // largest tracking error of an active element
+    double e = 0;
+    for (int k = 0; k < r.num_cycles(); ++k) e = std::max(e, r.tracking_error[k].cwiseProduct(r.active[k]).maxCoeff());
+    return e;
+  };
+  auto min_margin = [](const ScenarioRun& r) {
+    double mm = 1e9;
+    for (const VectorXd& b : r.balance) mm = std::min(mm, b[6]);
+    return mm;
+  };
+  std::cout << "max tracking error: balance + x_bal " << worst(*with) * 1e3 << " mm, balance without x_bal "
+            << worst(*uncompensated) * 1e3 << " mm, no balance " << worst(*without) * 1e3 << " mm\n"
+            << "min com margin: balance " << min_margin(*with) << " m, no balance " << min_margin(*without) << " m\n";
+  EXPECT_GT(min_margin(*with), 0.05);                        // com well inside the feet
+  EXPECT_GT(min_margin(*with), min_margin(*without) + 0.02);  // balance moved it back
+  EXPECT_LT(std::abs(worst(*with) - worst(*without)), 1e-3);  // within 1 mm of no balance
+  EXPECT_GT(worst(*uncompensated), worst(*with) + 2e-3);      // measurably worse without x_bal
+  const int ub_x = with->model->virtual_dofs().ub_x;
+  EXPECT_GT(std::abs(with->q.back()[ub_x] - with->q.front()[ub_x]), 0.01);  // the upper body did shift
+}
+
+TEST(Balance, ZeroAreaSupportAndABadLawHaveDefinedResults) {
+  const Model model = make_paper_model();
+  Controller c(model);
+  c.add_task(std::make_unique<PositionTask>(model, "l_hand", "l_hand_ref"));
+  c.reset(model.home());
+  Command cmd = c.make_command();
+  cmd.external_velocity = VectorXd::Zero(model.num_dofs());
+  BalanceModule balance(model, std::make_unique<CenterOfMassCentering>(4.0, 0.0));
+  const std::uint32_t none = balance.update(c.data(), SupportPolygon(), 0.001, cmd);
+  EXPECT_TRUE(none & kNoSupport);
+  EXPECT_EQ(cmd.external_velocity.norm(), 0.0);
+  EXPECT_FALSE(cmd.free_dofs[model.virtual_dofs().ub_x]);
+  struct NanLaw : BalanceLaw {
+    Vector2 shift_velocity(const Vector2&, const SupportPolygon&, double) override { return Vector2::Constant(std::nan("")); }
+  };
+  BalanceModule bad(model, std::make_unique<NanLaw>());
+  const SupportPolygon feet = SupportPolygon::standing(Vector2::Zero(), 0.0, FootGeometry{});
+  EXPECT_NEAR(feet.area(), 0.22 * (0.18 + 0.12), 1e-12);
+  EXPECT_TRUE(bad.update(c.data(), feet, 0.001, cmd) & kInvalidLawOutput);
+  EXPECT_EQ(cmd.external_velocity.norm(), 0.0);
+  EXPECT_TRUE(c.update(cmd, 0.001).ok());
+  EXPECT_TRUE(c.q().allFinite());
+  EXPECT_THROW(CenterOfMassCentering(0.0, 0.0), ConfigError);
+  // Signed distance: positive inside, negative outside.
+  EXPECT_NEAR(feet.signed_distance(feet.centroid()), 0.11, 1e-12);
+  EXPECT_LT(feet.signed_distance(Vector2(1.0, 0.0)), 0.0);
+}
+
+const Eigen::VectorXd& final_walking(const ScenarioRun& r) { return r.walking.back(); }
+int walks(const ScenarioRun& r) {
+  int n = 0;
+  for (size_t k = 1; k < r.walking.size(); ++k) n += (r.walking[k][3] > 0 && r.walking[k - 1][3] == 0) ? 1 : 0;
+  return n;
+}
+
+TEST(Walking, ObjectAheadWalksStopsAndGrasps) {
+  const auto run = run_scenario(shipped("walk_object_ahead"));
+  EXPECT_GE(walks(*run), 1);
+  EXPECT_GE(run->footsteps.size(), 4u);
+  EXPECT_EQ(final_walking(*run)[3], 0.0);  // stopped, heel frozen again
+  EXPECT_LT(run->error.back()[run->element("l_hand")], 0.01);
+  EXPECT_LT(deg(run->error.back()[run->element("l_grasp")]), 5.0);
+  // The real heel (between the feet) came along with the floating heel.
+  const Model& m = *run->model;
+  const Vector2 floating(run->q.back()[m.virtual_dofs().heel_x], run->q.back()[m.virtual_dofs().heel_y]);
+  EXPECT_LT((floating - final_walking(*run).head<2>()).norm(), 0.03);
+  EXPECT_GT(floating.norm(), 0.5);
+}
+
+TEST(Walking, ObjectBehindTurnsAndWalks) {
+  const auto run = run_scenario(shipped("walk_object_behind"));
+  EXPECT_GE(walks(*run), 1);
+  EXPECT_GT(std::abs(final_walking(*run)[2]), M_PI / 2);  // real heel turned more than 90 deg
+  EXPECT_EQ(final_walking(*run)[3], 0.0);
+  EXPECT_LT(run->error.back()[run->element("l_hand")], 0.01);
+}
+
+TEST(Walking, ObjectWithinReachDoesNotWalk) {
+  const auto run = run_scenario(shipped("walk_object_within_reach"));
+  EXPECT_EQ(walks(*run), 0);
+  EXPECT_TRUE(run->footsteps.empty());
+  EXPECT_LT(run->error.back()[run->element("l_hand")], 1e-3);
+}
+
+TEST(Walking, UnreachableTargetDoesNotStepForever) {
+  Scenario s = shipped("walk_object_ahead");
+  s.duration = 20.0;
+  s.events[0].targets[0].second = Eigen::Vector3d(0.5, 0.3, 20.0);  // 20 m up
+  const auto run = run_scenario(s);
+  EXPECT_LE(walks(*run), s.walking.parameters.max_walks);
+  EXPECT_EQ(final_walking(*run)[3], 0.0);
+  for (const VectorXd& q : run->q) ASSERT_TRUE(q.allFinite());
+  // Stepping stopped well before the end, after few steps.
+  EXPECT_LT(run->footsteps.size(), 20u);
+  if (!run->footsteps.empty()) {
+    EXPECT_LT(run->footsteps.back().time, s.duration - 5.0);
+  }
+}
+
+TEST(Walking, TargetMovingWhileWalking) {
+  Scenario s = shipped("walk_object_ahead");
+  s.duration = 20.0;
+  ScenarioEvent move;
+  move.time = 2.0;
+  move.targets.emplace_back("l_hand", Eigen::Vector3d(1.2, -0.6, 0.8));
+  s.events.push_back(move);
+  const auto run = run_scenario(s);
+  EXPECT_GE(walks(*run), 1);
+  EXPECT_EQ(final_walking(*run)[3], 0.0);
+  EXPECT_LE(static_cast<int>(run->footsteps.size()), s.walking.parameters.max_steps);
+  EXPECT_LT(run->error.back()[run->element("l_hand")], 0.01);
+}
+
+/// Every shipped scenario runs cleanly and writes its three (or four) files.
+TEST(Scenarios, EveryShippedScenarioRunsAndWritesItsOutputs) {
+  namespace fs = std::filesystem;
+  const fs::path out = fs::temp_directory_path() / "wbm_scenarios_test";
+  int count = 0;
+  for (const auto& entry : fs::directory_iterator(wbm_test::source_path("scenarios"))) {
+    if (entry.path().extension() != ".yaml") continue;
+    ++count;
+    const Scenario s = load_scenario(entry.path());
+    const auto run = run_scenario(s);
+    for (std::uint32_t f : run->flags) ASSERT_EQ(f & (std::uint32_t{kInvalidInput} | kInvalidCommand), 0u) << s.name;
+    write_outputs(*run, (out / s.name).string(), false);
+    EXPECT_TRUE(fs::exists(out / s.name / "trajectory.csv")) << s.name;
+    EXPECT_TRUE(fs::exists(out / s.name / "summary.json")) << s.name;
+    EXPECT_EQ(fs::exists(out / s.name / "footsteps.csv"), s.walking.enabled) << s.name;
+    std::ifstream csv(out / s.name / "trajectory.csv");
+    std::string header;
+    std::getline(csv, header);
+    EXPECT_EQ(header.rfind("time,status,q.", 0), 0u) << header;
+  }
+  EXPECT_GE(count, 9);
+}
+
+struct BadScenario {
+  const char* yaml;
+  const char* message;
+};
+
+TEST(Scenarios, BadFilesNameTheLineAndField) {
+  const BadScenario cases[] = {
+      {"name: x\ntasks: [\n", "bad.yaml:3: malformed YAML"},
+      {"tasks: [{name: a, type: position, frame: l_hand_ref}]\n", "bad.yaml:1: name: missing"},
+      {"name: x\ndt: -1\ntasks: [{name: a, type: position, frame: l_hand_ref}]\n", "bad.yaml:2: dt: expected a number > 0"},
+      {"name: x\ndt: fast\ntasks: [{name: a, type: position, frame: l_hand_ref}]\n", "bad.yaml:2: dt: expected a number, got 'fast'"},
+      {"name: x\nspeed: 3\ntasks: [{name: a, type: position, frame: l_hand_ref}]\n", "bad.yaml:2: speed: unknown field"},
+      {"name: x\ntasks:\n  - {name: a, type: pos, frame: l_hand_ref}\n", "bad.yaml:3: tasks[0].type: unknown type 'pos'"},
+      {"name: x\ntasks:\n  - {name: a, type: position}\n", "bad.yaml:3: tasks[0].frame: missing"},
+      {"name: x\ntasks:\n  - {name: a, type: position, frame: f, gain: -2}\n", "bad.yaml:3: tasks[0].gain: expected a number >= 0"},
+      {"name: x\ntasks:\n  - {name: a, type: position, frame: f, filter: {order: 1}}\n", "bad.yaml:3: tasks[0].filter.order: expected an integer in [2, 6]"},
+      {"name: x\ntasks:\n  - {name: a, type: position, frame: f}\n  - {name: a, type: axis, frame: f}\n", "bad.yaml:4: tasks[1].name: duplicate element name 'a'"},
+      {"name: x\ntasks: [{name: a, type: position, frame: f}]\ntimeline:\n  - {targets: {a: [1, 2, 3]}}\n", "bad.yaml:4: timeline[0].t: missing"},
+      {"name: x\nrobot: {builtin: asimo}\ntasks: [{name: a, type: position, frame: f}]\n", "bad.yaml:2: robot.builtin: expected 'paper'"},
+      {"name: x\ncriterion: {type: cubic, band: 1.5}\ntasks: [{name: a, type: position, frame: f}]\n", "bad.yaml:2: criterion.band: expected a number in [0, 1)"},
+  };
+  for (const BadScenario& c : cases) {
+    try {
+      parse_scenario(c.yaml, "bad.yaml", ".");
+      ADD_FAILURE() << "no error for:\n" << c.yaml;
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find(c.message), std::string::npos) << "got: " << e.what() << "\nwanted: " << c.message;
+    }
+  }
+}
+
+TEST(Scenarios, UnknownNamesInTheTimelineAreReportedBeforeRunning) {
+  const BadScenario cases[] = {
+      {"name: x\ntasks: [{name: a, type: position, frame: l_hand_ref}]\ntimeline:\n  - t: 1\n    targets: {b: [1, 2, 3]}\n",
+       "bad.yaml:4: targets: no task element named 'b'"},
+      {"name: x\ntasks: [{name: a, type: position, frame: l_hand_ref}]\ntimeline:\n  - t: 1\n    targets: {a: [1, 2]}\n",
+       "bad.yaml:4: targets.a: expected 3 values, got 2"},
+      {"name: x\ntasks: [{name: a, type: position, frame: l_hand_ref}]\ntimeline:\n  - t: 1\n    activate: [a.w]\n",
+       "bad.yaml:5: task element 'a' has no row 'w'"},
+      {"name: x\ntasks: [{name: a, type: position, frame: no_frame}]\n", "has no frame named 'no_frame'"},
+  };
+  for (const BadScenario& c : cases) {
+    try {
+      run_scenario(parse_scenario(c.yaml, "bad.yaml", "."));
+      ADD_FAILURE() << "no error for:\n" << c.yaml;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(c.message), std::string::npos) << "got: " << e.what() << "\nwanted: " << c.message;
+    }
+  }
+}
+
+}  // namespace
