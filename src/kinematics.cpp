@@ -17,6 +17,14 @@ Matrix3 axis_rotation(const Vector3& u, double angle) {
   return R;
 }
 
+/// R <- R * rotation(axis k, angle) for a coordinate axis: two columns mix.
+void rotate_columns(Matrix3& R, int k, double s, double c) {
+  const int i = (k + 1) % 3, j = (k + 2) % 3;
+  const Vector3 ci = R.col(i), cj = R.col(j);
+  R.col(i) = c * ci + s * cj;
+  R.col(j) = c * cj - s * ci;
+}
+
 }  // namespace
 
 Data::Data(const Model& model)
@@ -25,30 +33,42 @@ Data::Data(const Model& model)
 
 void forward_kinematics(const Model& model, Data& data, const Eigen::Ref<const Eigen::VectorXd>& q) {
   data.q = q;
-  const std::vector<Body>& bodies = model.bodies();
-  const int nb = static_cast<int>(bodies.size());
+  const Body* bodies = model.bodies().data();
+  const int* axis_code = model.axis_codes().data();
+  const char* plain = model.offset_without_rotation().data();
+  const int nb = model.num_bodies();
   for (int b = 0; b < nb; ++b) {
     const Body& body = bodies[b];
     // Pose of the joint frame J in the world: X_WJ = X_WP * X_PJ (eq. 2 and 3).
-    Transform X_WJ = body.parent < 0 ? body.X_PJ : data.X_WB[body.parent] * body.X_PJ;
-    data.a_W[b] = X_WJ.R * body.axis;
-    if (body.dof >= 0) {
-      const double value = body.multiplier * q[body.dof] + body.offset;
-      if (body.joint_type == JointType::kRevolute) {
-        X_WJ.R = X_WJ.R * axis_rotation(body.axis, value);
-      } else {
-        X_WJ.p += data.a_W[b] * value;
-      }
+    Transform& X = data.X_WB[b];
+    if (body.parent < 0) {
+      X = body.X_PJ;
+    } else {
+      const Transform& P = data.X_WB[body.parent];
+      X.p = P.R * body.X_PJ.p + P.p;
+      X.R = plain[b] ? P.R : Matrix3(P.R * body.X_PJ.R);
     }
-    data.X_WB[b] = X_WJ;
+    const int code = axis_code[b];
+    data.a_W[b] = code > 0 ? Vector3(X.R.col(code - 1)) : code < 0 ? Vector3(-X.R.col(-code - 1)) : Vector3(X.R * body.axis);
+    if (body.dof < 0) continue;
+    const double value = body.multiplier * q[body.dof] + body.offset;
+    if (body.joint_type == JointType::kPrismatic) {
+      X.p += data.a_W[b] * value;
+    } else if (code != 0) {
+      const double angle = code > 0 ? value : -value;
+      rotate_columns(X.R, std::abs(code) - 1, std::sin(angle), std::cos(angle));
+    } else {
+      X.R = X.R * axis_rotation(body.axis, value);
+    }
   }
 }
 
 void point_jacobian(const Model& model, const Data& data, int body, const Vector3& p_WQ,
                     Eigen::Ref<Eigen::MatrixXd> J) {
   J.setZero();
-  for (int b = body; b >= 0; b = model.body(b).parent) {
-    const Body& B = model.bodies()[b];
+  const Body* bodies = model.bodies().data();
+  for (int b = body; b >= 0; b = bodies[b].parent) {
+    const Body& B = bodies[b];
     if (B.dof < 0) continue;
     if (B.joint_type == JointType::kRevolute) {
       J.col(B.dof) += B.multiplier * data.a_W[b].cross(p_WQ - data.X_WB[b].p);
@@ -60,18 +80,20 @@ void point_jacobian(const Model& model, const Data& data, int body, const Vector
 
 void rotational_jacobian(const Model& model, const Data& data, int body, Eigen::Ref<Eigen::MatrixXd> J) {
   J.setZero();
-  for (int b = body; b >= 0; b = model.bodies()[b].parent) {
-    const Body& B = model.bodies()[b];
+  const Body* bodies = model.bodies().data();
+  for (int b = body; b >= 0; b = bodies[b].parent) {
+    const Body& B = bodies[b];
     if (B.dof >= 0 && B.joint_type == JointType::kRevolute) J.col(B.dof) += B.multiplier * data.a_W[b];
   }
 }
 
 void frame_jacobian(const Model& model, const Data& data, int frame, Eigen::Ref<Eigen::MatrixXd> J) {
-  const Frame& f = model.frame(frame);
+  const Frame& f = model.frames()[frame];
   const Vector3 p_WF = data.X_WB[f.body] * f.X_BF.p;
   J.setZero();
-  for (int b = f.body; b >= 0; b = model.bodies()[b].parent) {
-    const Body& B = model.bodies()[b];
+  const Body* bodies = model.bodies().data();
+  for (int b = f.body; b >= 0; b = bodies[b].parent) {
+    const Body& B = bodies[b];
     if (B.dof < 0) continue;
     if (B.joint_type == JointType::kRevolute) {
       J.col(B.dof).head<3>() += B.multiplier * data.a_W[b].cross(p_WF - data.X_WB[b].p);

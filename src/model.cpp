@@ -185,6 +185,16 @@ Model ModelBuilder::build() {
     if (f.body < 0 || f.body >= nb) throw ModelError("frame " + quoted(f.name) + ": body index out of range");
   }
 
+  m.axis_code_.assign(nb, 0);
+  m.offset_without_rotation_.assign(nb, 0);
+  for (int b = 0; b < nb; ++b) {
+    const Body& body = m.bodies_[b];
+    for (int k = 0; k < 3; ++k) {
+      if (body.axis == Vector3::Unit(k)) m.axis_code_[b] = k + 1;
+      if (body.axis == -Vector3::Unit(k)) m.axis_code_[b] = -(k + 1);
+    }
+    m.offset_without_rotation_[b] = body.X_PJ.R == Matrix3::Identity();
+  }
   m.subtree_mass_.assign(nb, 0.0);
   for (int b = nb - 1; b >= 0; --b) {
     m.subtree_mass_[b] += m.bodies_[b].inertial.mass;

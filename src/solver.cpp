@@ -29,7 +29,8 @@ WholeBodySolver::WholeBodySolver(const Model& model, int max_rows, const SolverP
   w_.setZero(n);
   range_sq_.resize(n);
   for (int i = 0; i < n; ++i) range_sq_[i] = model.dof(i).work_range * model.dof(i).work_range;
-  JW_.setZero(m, n);
+  Jt_.setZero(n, m);
+  JWt_.setZero(n, m);
   A_.setZero(m, m);
   L_.setZero(m, m);
   y_.setZero(m);
@@ -53,20 +54,23 @@ void WholeBodySolver::reset() {
 }
 
 bool WholeBodySolver::factorize(int m) {
-  // Cholesky A = L L^T, written out so that it works in place on the fixed buffers.
+  // Cholesky A = L L^T (lower triangle of A), in place on the fixed buffers; L is row-major
+  // so that every inner product runs over contiguous memory.
   double max_diagonal = 0.0;
   for (int j = 0; j < m; ++j) max_diagonal = std::max(max_diagonal, A_(j, j));
   const double tiny = 1e-13 * std::max(max_diagonal, 1e-300);
   for (int j = 0; j < m; ++j) {
+    const double* Lj = &L_(j, 0);
     double d = A_(j, j);
-    for (int k = 0; k < j; ++k) d -= L_(j, k) * L_(j, k);
+    for (int k = 0; k < j; ++k) d -= Lj[k] * Lj[k];
     if (!(d > tiny)) return false;
     const double l = std::sqrt(d);
     L_(j, j) = l;
     for (int i = j + 1; i < m; ++i) {
-      double s = A_(i, j);
-      for (int k = 0; k < j; ++k) s -= L_(i, k) * L_(j, k);
-      L_(i, j) = s / l;
+      const double* Li = &L_(i, 0);
+      double sum = A_(i, j);
+      for (int k = 0; k < j; ++k) sum -= Li[k] * Lj[k];
+      L_(i, j) = sum / l;
     }
   }
   return true;
@@ -81,13 +85,15 @@ void WholeBodySolver::solve_in_place(int m, Eigen::Ref<Eigen::VectorXd> b) const
 double WholeBodySolver::estimate_min_eigenvalue(int m) {
   if (!factorize(m)) return 0.0;
   auto v = v_.head(m);
+  int steps = 2;
   if (m != previous_rows_ || !v.allFinite() || v.norm() == 0.0) {
     for (int i = 0; i < m; ++i) v[i] = 1.0 + 0.37 * i;
     previous_rows_ = m;
+    steps = 3;
   }
   v.normalize();
   double growth = 0.0;
-  for (int k = 0; k < 3; ++k) {
+  for (int k = 0; k < steps; ++k) {
     solve_in_place(m, v);
     growth = v.norm();
     v /= growth;
@@ -132,10 +138,13 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
     out_.qdot_null = -parameters_.nullspace_gain * g_;
     out_.min_singular_value = std::numeric_limits<double>::infinity();
   } else {
-    auto JW = JW_.topRows(m);
-    JW.noalias() = J * w_.asDiagonal();
+    auto Jt = Jt_.leftCols(m);
+    auto JWt = JWt_.leftCols(m);
+    Jt = J.transpose();
+    JWt.noalias() = w_.asDiagonal() * Jt;
     auto A = A_.topLeftCorner(m, m);
-    A.noalias() = JW * J.transpose();
+    for (int j = 0; j < m; ++j)
+      for (int i = j; i < m; ++i) A(i, j) = JWt.col(i).dot(Jt.col(j));
     const double lambda_min = estimate_min_eigenvalue(m);
     out_.min_singular_value = std::sqrt(std::max(lambda_min, 0.0));
     const double eps2 = parameters_.singular_threshold * parameters_.singular_threshold;
@@ -154,12 +163,12 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
     auto y = y_.head(m);
     y = xdot;
     solve_in_place(m, y);
-    out_.qdot_task.noalias() = JW.transpose() * y;
+    out_.qdot_task.noalias() = JWt * y;
     auto u = u_.head(m);
-    u.noalias() = J * g_;
+    u.noalias() = Jt.transpose() * g_;
     solve_in_place(m, u);
     out_.qdot_null = g_;
-    out_.qdot_null.noalias() -= JW.transpose() * u;
+    out_.qdot_null.noalias() -= JWt * u;
     out_.qdot_null *= -parameters_.nullspace_gain;
   }
 

@@ -30,22 +30,27 @@ Transform RelativeFrame::pose(const Model& model, const Data& data) const {
   return frame_pose(model, data, reference_).inverse() * X_WF;
 }
 
-void RelativeFrame::jacobian(const Model& model, const Data& data, Eigen::Ref<Eigen::MatrixXd> J) {
-  frame_jacobian(model, data, frame_, J);
+void RelativeFrame::translational_jacobian(const Model& model, const Data& data, Eigen::Ref<Eigen::MatrixXd> J) {
+  const Frame& f = model.frames()[frame_];
+  const Vector3 p_WF = data.X_WB[f.body] * f.X_BF.p;
+  point_jacobian(model, data, f.body, p_WF, J);
   if (reference_ < 0) return;
-  // d/dt R_WR^T (p_WF - p_WR) = R_WR^T (v_F - v_R + (p_WF - p_WR) x w_R), and the relative
-  // angular velocity R_WR^T (w_F - w_R).
+  // d/dt R_WR^T (p_WF - p_WR) = R_WR^T (v_F - v_R + (p_WF - p_WR) x w_R).
   frame_jacobian(model, data, reference_, J_reference_);
   const Transform X_WR = frame_pose(model, data, reference_);
-  const Vector3 d = frame_pose(model, data, frame_).p - X_WR.p;
+  const Vector3 d = p_WF - X_WR.p;
   const Matrix3 Rt = X_WR.R.transpose();
-  const int n = static_cast<int>(J.cols());
-  for (int c = 0; c < n; ++c) {
-    const Vector3 v = J.col(c).head<3>() - J_reference_.col(c).head<3>() + d.cross(J_reference_.col(c).tail<3>());
-    const Vector3 w = J.col(c).tail<3>() - J_reference_.col(c).tail<3>();
-    J.col(c).head<3>() = Rt * v;
-    J.col(c).tail<3>() = Rt * w;
-  }
+  for (int c = 0; c < J.cols(); ++c)
+    J.col(c) = Rt * (J.col(c) - J_reference_.col(c).head<3>() + d.cross(J_reference_.col(c).tail<3>()));
+}
+
+void RelativeFrame::rotational_jacobian(const Model& model, const Data& data, Eigen::Ref<Eigen::MatrixXd> J) {
+  wbm::rotational_jacobian(model, data, model.frames()[frame_].body, J);
+  if (reference_ < 0) return;
+  // The relative angular velocity R_WR^T (w_F - w_R).
+  wbm::rotational_jacobian(model, data, model.frames()[reference_].body, J_reference_.topRows<3>());
+  const Matrix3 Rt = frame_pose(model, data, reference_).R.transpose();
+  for (int c = 0; c < J.cols(); ++c) J.col(c) = Rt * (J.col(c) - J_reference_.col(c).head<3>());
 }
 
 }  // namespace wbm

@@ -100,6 +100,12 @@ class Model {
   const Eigen::VectorXd& upper_limits() const { return upper_; }
   const Eigen::VectorXd& max_speeds() const { return max_speed_; }
 
+  /// Precomputed for forward kinematics: +1..+3 / -1..-3 when a body's axis is +-x, +-y,
+  /// +-z (a cheap column rotation), 0 for a general axis.
+  const std::vector<int>& axis_codes() const { return axis_code_; }
+  /// True where a body's joint offset X_PJ has no rotation.
+  const std::vector<char>& offset_without_rotation() const { return offset_without_rotation_; }
+
   /// @throws ModelError naming the dof if there is none with this name.
   int dof_index(const std::string& name) const;
   /// @throws ModelError naming the frame (and listing a few known ones) if unknown.
@@ -119,6 +125,8 @@ class Model {
   VirtualDofs virtual_dofs_;
   double total_mass_ = 0.0;
   std::vector<double> subtree_mass_;
+  std::vector<int> axis_code_;
+  std::vector<char> offset_without_rotation_;
   Eigen::VectorXd home_, lower_, upper_, max_speed_;
 };
 

@@ -70,8 +70,8 @@ struct SolverOutput {
 /// (IV.D); the dof moves exactly zero.
 ///
 /// Factorisation: Cholesky of A = J W^-1 J^T (m x m). The smallest eigenvalue of A
-/// (sigma_min^2) is estimated by three steps of inverse iteration warm-started from the
-/// previous cycle. Below the threshold eps the damped form A + lambda^2 E is used with
+/// (sigma_min^2) is estimated by inverse iteration warm-started from the previous cycle
+/// (two steps; three when the number of rows changed). Below the threshold eps the damped form A + lambda^2 E is used with
 /// lambda^2 = lambda_max^2 (1 - sigma_min^2 / eps^2) (singularity-robust inverse, Nakamura
 /// 1986): lambda is continuous in the configuration and J J# = E holds exactly away from
 /// singularities. More rows than free dofs make A singular and take the same path.
@@ -110,8 +110,9 @@ class WholeBodySolver {
   int max_rows_;
   Eigen::VectorXd w_;         // W^-1 diagonal with frozen dofs zeroed
   Eigen::VectorXd range_sq_;  // r_i^2
-  Eigen::MatrixXd JW_;        // J W^-1 (m x n)
-  Eigen::MatrixXd A_, L_;     // J W^-1 J^T and its Cholesky factor
+  Eigen::MatrixXd Jt_, JWt_;  // J^T and W^-1 J^T (n x m): task rows as contiguous columns
+  Eigen::MatrixXd A_;         // J W^-1 J^T (lower triangle used)
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> L_;  // Cholesky factor
   Eigen::VectorXd y_, v_, g_, u_;
   Eigen::VectorXd previous_null_;
   int previous_rows_ = -1;

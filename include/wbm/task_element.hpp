@@ -70,9 +70,11 @@ class RelativeFrame {
   Matrix3 reference_rotation(const Model& model, const Data& data) const;
   /// Position p_RF and rotation R_RF of the frame in the reference frame.
   Transform pose(const Model& model, const Data& data) const;
-  /// Jacobian (6 x nq) of the frame relative to the reference, expressed in the reference:
-  /// rows 0-2 d/dt p_RF, rows 3-5 the relative angular velocity.
-  void jacobian(const Model& model, const Data& data, Eigen::Ref<Eigen::MatrixXd> J);
+  /// Translational Jacobian (3 x nq) of the frame origin relative to the reference,
+  /// expressed in the reference: d/dt p_RF.
+  void translational_jacobian(const Model& model, const Data& data, Eigen::Ref<Eigen::MatrixXd> J);
+  /// Rotational Jacobian (3 x nq): the relative angular velocity, in the reference.
+  void rotational_jacobian(const Model& model, const Data& data, Eigen::Ref<Eigen::MatrixXd> J);
 
  private:
   int frame_ = -1;

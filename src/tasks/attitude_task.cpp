@@ -11,7 +11,7 @@ double wrap(double angle) { return std::remainder(angle, 2.0 * M_PI); }
 
 AttitudeTask::AttitudeTask(const Model& model, std::string name, const std::string& frame, const std::string& reference)
     : TaskElement(std::move(name), 3, 3, TargetKind::kVector), frame_(model, frame, reference),
-      J6_(6, model.num_dofs()) {}
+      J3_(3, model.num_dofs()) {}
 
 Vector3 AttitudeTask::kardan_angles(const Matrix3& R) {
   // R = Rx(a) Ry(b) Rz(c): R(0,2) = sin b, R(1,2) = -sin a cos b, R(2,2) = cos a cos b,
@@ -43,8 +43,8 @@ void AttitudeTask::evaluate(const Model& model, const Data& data, const Eigen::R
   // Inverse of E = [[1, 0, sb], [0, ca, -sa cb], [0, sa, ca cb]].
   Matrix3 E_inv;
   E_inv << 1.0, sa * sb / cb, -ca * sb / cb, 0.0, ca, sa, 0.0, -sa / cb, ca / cb;
-  frame_.jacobian(model, data, J6_);
-  J.noalias() = E_inv * J6_.bottomRows<3>();
+  frame_.rotational_jacobian(model, data, J3_);
+  J.noalias() = E_inv * J3_;
   for (int i = 0; i < 3; ++i) error[i] = wrap(target[i] - angles[i]);
   rate = target_rate;
 }

@@ -6,7 +6,7 @@ namespace wbm {
 
 AxisTask::AxisTask(const Model& model, std::string name, const std::string& frame, const std::string& reference)
     : TaskElement(std::move(name), 2, 3, TargetKind::kDirection), frame_(model, frame, reference),
-      J6_(6, model.num_dofs()) {}
+      J3_(3, model.num_dofs()) {}
 
 void AxisTask::value(const Model& model, const Data& data, Eigen::Ref<Eigen::VectorXd> x) {
   x = frame_.pose(model, data).R.col(2);
@@ -33,9 +33,9 @@ void AxisTask::evaluate(const Model& model, const Data& data, const Eigen::Ref<c
   const Vector3 a_t = target.head<3>();
   double phi = 0.0;
   const Matrix3 R_sl = sl_frame(R_RF.col(2), a_t, R_RF.col(1), &phi);
-  frame_.jacobian(model, data, J6_);
+  frame_.rotational_jacobian(model, data, J3_);
   // eq. (18): rows x and y of A_sl-I * J_R.
-  J.noalias() = R_sl.leftCols<2>().transpose() * J6_.bottomRows<3>();
+  J.noalias() = R_sl.leftCols<2>().transpose() * J3_;
   error << 0.0, phi;
   // Angular velocity of the moving unit target: w = a_t x d(a_t)/dt.
   const Vector3 unit_target = a_t.normalized();

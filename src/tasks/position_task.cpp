@@ -3,8 +3,7 @@
 namespace wbm {
 
 PositionTask::PositionTask(const Model& model, std::string name, const std::string& frame, const std::string& reference)
-    : TaskElement(std::move(name), 3, 3, TargetKind::kVector), frame_(model, frame, reference),
-      J6_(6, model.num_dofs()) {}
+    : TaskElement(std::move(name), 3, 3, TargetKind::kVector), frame_(model, frame, reference) {}
 
 void PositionTask::value(const Model& model, const Data& data, Eigen::Ref<Eigen::VectorXd> x) {
   x = frame_.pose(model, data).p;
@@ -13,8 +12,7 @@ void PositionTask::value(const Model& model, const Data& data, Eigen::Ref<Eigen:
 void PositionTask::evaluate(const Model& model, const Data& data, const Eigen::Ref<const Eigen::VectorXd>& target,
                             const Eigen::Ref<const Eigen::VectorXd>& target_rate, Eigen::Ref<Eigen::MatrixXd> J,
                             Eigen::Ref<Eigen::VectorXd> error, Eigen::Ref<Eigen::VectorXd> rate) {
-  frame_.jacobian(model, data, J6_);
-  J = J6_.topRows<3>();
+  frame_.translational_jacobian(model, data, J);
   error = target - frame_.pose(model, data).p;
   rate = target_rate;
 }

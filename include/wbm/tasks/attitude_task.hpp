@@ -25,7 +25,7 @@ class AttitudeTask : public TaskElement {
 
  private:
   RelativeFrame frame_;
-  Eigen::MatrixXd J6_;
+  Eigen::MatrixXd J3_;
 };
 
 }  // namespace wbm

@@ -30,7 +30,7 @@ class AxisTask : public TaskElement {
 
  private:
   RelativeFrame frame_;
-  Eigen::MatrixXd J6_;
+  Eigen::MatrixXd J3_;
 };
 
 }  // namespace wbm

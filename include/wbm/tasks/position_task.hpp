@@ -16,7 +16,6 @@ class PositionTask : public TaskElement {
 
  private:
   RelativeFrame frame_;
-  Eigen::MatrixXd J6_;
 };
 
 }  // namespace wbm
