@@ -234,7 +234,7 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
     }
     if (balance) {
       Eigen::VectorXd b(7);
-      const Vector2 com = c.data().p_WCm.head<2>();
+      const Vector2 com = center_of_mass_position(model, c.data()).head<2>();
       b << com.x(), com.y(), support.centroid().x(), support.centroid().y(),
           c.q()[model.virtual_dofs().ub_x], c.q()[model.virtual_dofs().ub_y], support.signed_distance(com);
       run->balance.push_back(b);

@@ -115,7 +115,7 @@ std::uint32_t BalanceModule::update(const Data& data, const SupportPolygon& supp
   if (command.external_velocity.size() != model_.num_dofs()) return flags | kNoSupport;  // unsized command
   command.external_velocity[ub_x_] = 0.0;
   command.external_velocity[ub_y_] = 0.0;
-  const Vector2 com = data.p_WCm.head<2>();
+  const Vector2 com = center_of_mass_position(model_, data).head<2>();
   last_margin_ = support.signed_distance(com);
   if (last_margin_ < 0.0) flags |= kComOutside;
   if (!(std::abs(support.area()) > 1e-6)) return flags | kNoSupport;

@@ -18,6 +18,7 @@ Controller::Controller(const Model& model, const SolverParameters& solver)
 int Controller::add_task(std::unique_ptr<TaskElement> element, const FilterParameters& filter) {
   if (!element) throw ConfigError("controller: null task element");
   TrajectoryFilter f(element->target_kind(), element->target_dim(), filter);
+  needs_center_of_mass_ = needs_center_of_mass_ || element->needs_center_of_mass();
   const int index = stack_.add(std::move(element));
   filters_.push_back(std::move(f));
   solver_.reset();
@@ -37,7 +38,7 @@ void Controller::set_solver_parameters(const SolverParameters& parameters) {
 
 void Controller::update_kinematics() {
   forward_kinematics(model_, data_, q_);
-  if (model_.total_mass() > 0.0) center_of_mass(model_, data_);
+  if (needs_center_of_mass_) center_of_mass(model_, data_);
   stack_.values(model_, data_, values_);
 }
 

@@ -63,43 +63,67 @@ void forward_kinematics(const Model& model, Data& data, const Eigen::Ref<const E
   }
 }
 
+namespace {
+
+/// Zeroes the 3 (or 6) rows of J starting at `row` and returns pointers to write columns.
+/// Raw column access: the Jacobians are tiny and called every cycle, so Eigen's
+/// dynamic-size expression overhead would dominate.
+struct ColumnWriter {
+  double* data;
+  Eigen::Index stride;
+  double* col(int c) const { return data + c * stride; }
+};
+
+ColumnWriter clear(Eigen::Ref<Eigen::MatrixXd>& J) {
+  const Eigen::Index stride = J.outerStride();
+  for (Eigen::Index c = 0; c < J.cols(); ++c)
+    for (Eigen::Index r = 0; r < J.rows(); ++r) J.data()[c * stride + r] = 0.0;
+  return {J.data(), stride};
+}
+
+void add(double* col, double k, const Vector3& v) {
+  col[0] += k * v.x();
+  col[1] += k * v.y();
+  col[2] += k * v.z();
+}
+
+}  // namespace
+
 void point_jacobian(const Model& model, const Data& data, int body, const Vector3& p_WQ,
                     Eigen::Ref<Eigen::MatrixXd> J) {
-  J.setZero();
+  const ColumnWriter w = clear(J);
   const Body* bodies = model.bodies().data();
   for (int b = body; b >= 0; b = bodies[b].parent) {
     const Body& B = bodies[b];
     if (B.dof < 0) continue;
-    if (B.joint_type == JointType::kRevolute) {
-      J.col(B.dof) += B.multiplier * data.a_W[b].cross(p_WQ - data.X_WB[b].p);
-    } else {
-      J.col(B.dof) += B.multiplier * data.a_W[b];
-    }
+    const Vector3& a = data.a_W[b];
+    add(w.col(B.dof), B.multiplier, B.joint_type == JointType::kRevolute ? Vector3(a.cross(p_WQ - data.X_WB[b].p)) : a);
   }
 }
 
 void rotational_jacobian(const Model& model, const Data& data, int body, Eigen::Ref<Eigen::MatrixXd> J) {
-  J.setZero();
+  const ColumnWriter w = clear(J);
   const Body* bodies = model.bodies().data();
   for (int b = body; b >= 0; b = bodies[b].parent) {
     const Body& B = bodies[b];
-    if (B.dof >= 0 && B.joint_type == JointType::kRevolute) J.col(B.dof) += B.multiplier * data.a_W[b];
+    if (B.dof >= 0 && B.joint_type == JointType::kRevolute) add(w.col(B.dof), B.multiplier, data.a_W[b]);
   }
 }
 
 void frame_jacobian(const Model& model, const Data& data, int frame, Eigen::Ref<Eigen::MatrixXd> J) {
   const Frame& f = model.frames()[frame];
   const Vector3 p_WF = data.X_WB[f.body] * f.X_BF.p;
-  J.setZero();
+  const ColumnWriter w = clear(J);
   const Body* bodies = model.bodies().data();
   for (int b = f.body; b >= 0; b = bodies[b].parent) {
     const Body& B = bodies[b];
     if (B.dof < 0) continue;
+    const Vector3& a = data.a_W[b];
     if (B.joint_type == JointType::kRevolute) {
-      J.col(B.dof).head<3>() += B.multiplier * data.a_W[b].cross(p_WF - data.X_WB[b].p);
-      J.col(B.dof).tail<3>() += B.multiplier * data.a_W[b];
+      add(w.col(B.dof), B.multiplier, a.cross(p_WF - data.X_WB[b].p));
+      add(w.col(B.dof) + 3, B.multiplier, a);
     } else {
-      J.col(B.dof).head<3>() += B.multiplier * data.a_W[b];
+      add(w.col(B.dof), B.multiplier, a);
     }
   }
 }
@@ -115,6 +139,13 @@ Vector3 center_of_mass(const Model& model, Data& data) {
     if (bodies[b].parent < 0) mc += data.mc_W[b];
   data.p_WCm = mc / model.total_mass();
   return data.p_WCm;
+}
+
+Vector3 center_of_mass_position(const Model& model, const Data& data) {
+  Vector3 mc = Vector3::Zero();
+  const Body* bodies = model.bodies().data();
+  for (int b = 0; b < model.num_bodies(); ++b) mc += bodies[b].inertial.mass * (data.X_WB[b] * bodies[b].inertial.com);
+  return mc / model.total_mass();
 }
 
 void com_jacobian(const Model& model, const Data& data, Eigen::Ref<Eigen::MatrixXd> J) {

@@ -51,6 +51,7 @@ void WholeBodySolver::set_parameters(const SolverParameters& parameters) {
 void WholeBodySolver::reset() {
   previous_null_.setZero();
   previous_rows_ = -1;
+  last_estimate_ = 0.0;
 }
 
 bool WholeBodySolver::factorize(int m) {
@@ -77,15 +78,29 @@ bool WholeBodySolver::factorize(int m) {
 }
 
 void WholeBodySolver::solve_in_place(int m, Eigen::Ref<Eigen::VectorXd> b) const {
-  const auto L = L_.topLeftCorner(m, m);
-  L.triangularView<Eigen::Lower>().solveInPlace(b);
-  L.triangularView<Eigen::Lower>().transpose().solveInPlace(b);
+  // L y = b (forward), then L^T x = y (backward, column-oriented): rows of the row-major
+  // factor are contiguous in both.
+  double* x = b.data();
+  for (int i = 0; i < m; ++i) {
+    const double* Li = &L_(i, 0);
+    double sum = x[i];
+    for (int k = 0; k < i; ++k) sum -= Li[k] * x[k];
+    x[i] = sum / Li[i];
+  }
+  for (int i = m - 1; i >= 0; --i) {
+    const double* Li = &L_(i, 0);
+    x[i] /= Li[i];
+    for (int k = 0; k < i; ++k) x[k] -= Li[k] * x[i];
+  }
 }
 
 double WholeBodySolver::estimate_min_eigenvalue(int m) {
-  if (!factorize(m)) return 0.0;
+  if (!factorize(m)) return last_estimate_ = 0.0;
   auto v = v_.head(m);
-  int steps = 2;
+  // One step per cycle continues the iteration of the previous cycles (the configuration
+  // changes little between cycles); three after a change of the row count, and three near
+  // the threshold, where the estimate sets the damping.
+  int steps = last_estimate_ < 4.0 * parameters_.singular_threshold * parameters_.singular_threshold ? 3 : 1;
   if (m != previous_rows_ || !v.allFinite() || v.norm() == 0.0) {
     for (int i = 0; i < m; ++i) v[i] = 1.0 + 0.37 * i;
     previous_rows_ = m;
@@ -99,7 +114,8 @@ double WholeBodySolver::estimate_min_eigenvalue(int m) {
     v /= growth;
   }
   // |A^-1 v| <= 1 / lambda_min, with equality for the converged eigenvector.
-  return 1.0 / growth;
+  last_estimate_ = 1.0 / growth;
+  return last_estimate_;
 }
 
 SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
@@ -116,7 +132,7 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
   out_.nullspace_scale = 1.0;
   out_.task_scale = 1.0;
   if (J.cols() != n || xdot.size() != m || gradient.size() != n || free_dofs.size() != n || m > max_rows_ ||
-      !(std::isfinite(dt) && dt > 0.0) || !J.allFinite() || !xdot.allFinite() || !gradient.allFinite()) {
+      !(std::isfinite(dt) && dt > 0.0) || !xdot.allFinite() || !gradient.allFinite()) {
     status.flags |= kInvalidInput;
     return status;
   }

@@ -55,6 +55,12 @@ void TrajectoryFilter::reset_component(int i, double value, double velocity) {
 void TrajectoryFilter::move_towards(Eigen::Ref<Eigen::VectorXd> x, const Eigen::Ref<const Eigen::VectorXd>& to,
                                     double fraction, double max_step) const {
   if (kind_ == TargetKind::kVector) {
+    if (x.size() == 3) {  // the common case (positions), without dynamic-size overhead
+      const Vector3 d = to.head<3>() - x.head<3>();
+      const double distance = d.norm();
+      if (distance > 0.0) x.head<3>() += d * (std::min(distance * fraction, max_step) / distance);
+      return;
+    }
     const double distance = (to - x).norm();
     if (distance <= 0.0) return;
     const double step = std::min(distance * fraction, max_step);

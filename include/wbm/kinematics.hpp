@@ -51,6 +51,10 @@ void frame_jacobian(const Model& model, const Data& data, int frame, Eigen::Ref<
 /// @pre forward_kinematics() was called; model.total_mass() > 0.
 Vector3 center_of_mass(const Model& model, Data& data);
 
+/// Whole-body centre of mass [m] from the last forward_kinematics(), without touching Data.
+/// @pre model.total_mass() > 0.
+Vector3 center_of_mass_position(const Model& model, const Data& data);
+
 /// Jacobian (3 x nq) of the whole-body centre of mass. @pre center_of_mass() was called.
 void com_jacobian(const Model& model, const Data& data, Eigen::Ref<Eigen::MatrixXd> J);
 

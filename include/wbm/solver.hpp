@@ -71,7 +71,7 @@ struct SolverOutput {
 ///
 /// Factorisation: Cholesky of A = J W^-1 J^T (m x m). The smallest eigenvalue of A
 /// (sigma_min^2) is estimated by inverse iteration warm-started from the previous cycle
-/// (two steps; three when the number of rows changed). Below the threshold eps the damped form A + lambda^2 E is used with
+/// (one step per cycle; three when the row count changed or near the threshold). Below the threshold eps the damped form A + lambda^2 E is used with
 /// lambda^2 = lambda_max^2 (1 - sigma_min^2 / eps^2) (singularity-robust inverse, Nakamura
 /// 1986): lambda is continuous in the configuration and J J# = E holds exactly away from
 /// singularities. More rows than free dofs make A singular and take the same path.
@@ -116,6 +116,7 @@ class WholeBodySolver {
   Eigen::VectorXd y_, v_, g_, u_;
   Eigen::VectorXd previous_null_;
   int previous_rows_ = -1;
+  double last_estimate_ = 0.0;
   SolverOutput out_;
 };
 

@@ -40,6 +40,9 @@ class TaskElement {
   /// @throws ConfigError if gain < 0 or not finite.
   void set_gain(double gain);
 
+  /// True if the element reads the centre of mass (the controller then computes it).
+  virtual bool needs_center_of_mass() const { return false; }
+
   /// Current value (target_dim entries) from the last forward_kinematics() (and
   /// center_of_mass() for centre-of-mass elements).
   virtual void value(const Model& model, const Data& data, Eigen::Ref<Eigen::VectorXd> x) = 0;

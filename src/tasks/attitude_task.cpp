@@ -44,7 +44,7 @@ void AttitudeTask::evaluate(const Model& model, const Data& data, const Eigen::R
   Matrix3 E_inv;
   E_inv << 1.0, sa * sb / cb, -ca * sb / cb, 0.0, ca, sa, 0.0, -sa / cb, ca / cb;
   frame_.rotational_jacobian(model, data, J3_);
-  J.noalias() = E_inv * J3_;
+  for (int c = 0; c < J.cols(); ++c) J.col(c) = E_inv * Vector3(J3_.col(c));
   for (int i = 0; i < 3; ++i) error[i] = wrap(target[i] - angles[i]);
   rate = target_rate;
 }

@@ -35,7 +35,11 @@ void AxisTask::evaluate(const Model& model, const Data& data, const Eigen::Ref<c
   const Matrix3 R_sl = sl_frame(R_RF.col(2), a_t, R_RF.col(1), &phi);
   frame_.rotational_jacobian(model, data, J3_);
   // eq. (18): rows x and y of A_sl-I * J_R.
-  J.noalias() = R_sl.leftCols<2>().transpose() * J3_;
+  for (int c = 0; c < J.cols(); ++c) {
+    const Vector3 w = J3_.col(c);
+    J(0, c) = R_sl.col(0).dot(w);
+    J(1, c) = R_sl.col(1).dot(w);
+  }
   error << 0.0, phi;
   // Angular velocity of the moving unit target: w = a_t x d(a_t)/dt.
   const Vector3 unit_target = a_t.normalized();

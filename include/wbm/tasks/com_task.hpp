@@ -9,6 +9,7 @@ class CenterOfMassTask : public TaskElement {
  public:
   /// @throws ModelError if the reference frame is unknown or the model has no mass.
   CenterOfMassTask(const Model& model, std::string name, const std::string& reference = "");
+  bool needs_center_of_mass() const override { return true; }
   void value(const Model& model, const Data& data, Eigen::Ref<Eigen::VectorXd> x) override;
   void evaluate(const Model& model, const Data& data, const Eigen::Ref<const Eigen::VectorXd>& target,
                 const Eigen::Ref<const Eigen::VectorXd>& target_rate, Eigen::Ref<Eigen::MatrixXd> J,
