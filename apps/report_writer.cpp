@@ -104,9 +104,8 @@ std::string render_report(const ScenarioRun& run) {
     for (int k : samples) real.push_back(json::array({run.walking[k][0], run.walking[k][1], 0.0}));
     paths.push_back({{"name", "real heel (between the feet)"}, {"points", real}});
     json prints = json::array();
-    FootGeometry feet;
     for (const Footstep& f : run.footsteps) {
-      const SupportPolygon one = SupportPolygon::from_feet({f.pose}, feet);
+      const SupportPolygon one = SupportPolygon::from_feet({f.pose}, run.feet);
       json poly = json::array();
       for (const Vector2& v : one.vertices()) poly.push_back(json::array({v.x(), v.y()}));
       prints.push_back({{"t", f.time}, {"side", f.left ? "L" : "R"}, {"polygon", poly}});
@@ -182,8 +181,12 @@ std::string render_report(const ScenarioRun& run) {
   json table = json::array();
   for (const auto& [name, e] : summary["elements"].items()) {
     char text[160];
-    std::snprintf(text, sizeof text, "final %.3g %s, max tracking %.3g %s", e["final_error"].get<double>(),
-                  e["unit"].get<std::string>().c_str(), e["max_tracking_error"].get<double>(), e["unit"].get<std::string>().c_str());
+    const std::string unit = e["unit"].get<std::string>();
+    if (e["final_error"].is_null())
+      std::snprintf(text, sizeof text, "inactive at the end; max tracking %.3g %s", e["max_tracking_error"].get<double>(), unit.c_str());
+    else
+      std::snprintf(text, sizeof text, "final %.3g %s, max tracking %.3g %s", e["final_error"].get<double>(), unit.c_str(),
+                    e["max_tracking_error"].get<double>(), unit.c_str());
     table.push_back({name, text});
   }
   table.push_back({"max joint speed / limit", std::to_string(summary["max_joint_speed"]["ratio_to_limit"].get<double>()) +

@@ -186,7 +186,16 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
   bool balance_on = s.balance.enabled;
   bool balance_needed = s.balance.configured;
   for (const ScenarioEvent& ev : s.events) balance_needed |= ev.balance == 1;
-  const FootGeometry feet;
+  FootGeometry feet = s.feet.geometry;
+  if (!s.feet.left_frame.empty()) {
+    // Spacing: lateral distance of the two foot frames in the heel frame, home pose.
+    const Data& d = c.data();
+    const Transform X_HW = d.X_WB[model.virtual_dofs().heel_body].inverse();
+    const double yl = (X_HW * frame_pose(model, d, model.frame_index(s.feet.left_frame)).p).y();
+    const double yr = (X_HW * frame_pose(model, d, model.frame_index(s.feet.right_frame)).p).y();
+    feet.spacing = std::abs(yl - yr);
+  }
+  run->feet = feet;
   if (balance_needed)
     balance = std::make_unique<BalanceModule>(model, std::make_unique<CenterOfMassCentering>(s.balance.gain, s.balance.margin),
                                               feet);
@@ -305,7 +314,9 @@ json summarize(const ScenarioRun& run) {
     elements[s.tasks[i].name] = {{"type", type},
                                  {"unit", angular ? "deg" : (type == "joints" ? "rad" : "mm")},
                                  {"active_at_end", run.active[K - 1][i] > 0.0},
-                                 {"final_error", run.error[K - 1][i] * (angular ? 180.0 / M_PI : type == "joints" ? 1.0 : 1000.0)},
+                                 {"final_error", run.active[K - 1][i] > 0.0
+                                                     ? json(run.error[K - 1][i] * (angular ? 180.0 / M_PI : type == "joints" ? 1.0 : 1000.0))
+                                                     : json(nullptr)},
                                  {"max_error", max_error * (angular ? 180.0 / M_PI : type == "joints" ? 1.0 : 1000.0)},
                                  {"max_tracking_error", max_tracking * (angular ? 180.0 / M_PI : type == "joints" ? 1.0 : 1000.0)}};
   }

@@ -32,6 +32,7 @@ struct ScenarioRun {
   std::vector<Eigen::VectorXd> balance;  ///< com x, y, support centroid x, y, ub shift x, y, com margin (balance on)
   std::vector<Eigen::VectorXd> walking;  ///< real heel x, y, yaw, walking 0/1, walking flags (walking on)
   std::vector<Footstep> footsteps;
+  FootGeometry feet;                     ///< the feet used for the support polygon
   std::vector<SupportPolygon> support;   ///< per cycle when balance or walking runs (empty otherwise)
 
   int num_cycles() const { return static_cast<int>(time.size()); }

@@ -129,7 +129,7 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
   s.source = source;
   if (!root.IsMap()) throw ConfigError(source + ":1: expected a mapping with name, robot, tasks, timeline, ...");
   r.only(root, "", {"name", "description", "robot", "dt", "duration", "record_every", "solver", "criterion", "initial",
-                    "frozen", "tasks", "timeline", "balance", "walking"});
+                    "frozen", "tasks", "timeline", "balance", "walking", "feet"});
   if (!root["name"]) throw ConfigError(source + ":1: name: missing (expected a scenario name)");
   s.name = r.text(root["name"], "name");
   if (root["description"]) s.description = r.text(root["description"], "description");
@@ -181,6 +181,19 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
     if (balance["compensate"]) s.balance.compensate = r.boolean(balance["compensate"], "balance.compensate");
     if (balance["gain"]) s.balance.gain = r.positive(balance["gain"], "balance.gain");
     if (balance["margin"]) s.balance.margin = r.number(balance["margin"], "balance.margin");
+  }
+  if (const YAML::Node feet = root["feet"]) {
+    r.only(feet, "feet", {"length", "width", "spacing", "left_frame", "right_frame"});
+    FootGeometry& g = s.feet.geometry;
+    if (feet["length"]) g.length = r.positive(feet["length"], "feet.length");
+    if (feet["width"]) g.width = r.positive(feet["width"], "feet.width");
+    if (feet["spacing"]) g.spacing = r.positive(feet["spacing"], "feet.spacing");
+    if (feet["left_frame"]) s.feet.left_frame = r.text(feet["left_frame"], "feet.left_frame");
+    if (feet["right_frame"]) s.feet.right_frame = r.text(feet["right_frame"], "feet.right_frame");
+    if (s.feet.left_frame.empty() != s.feet.right_frame.empty())
+      r.fail(feet, "feet", "give both left_frame and right_frame, or neither");
+    if (feet["spacing"] && !s.feet.left_frame.empty())
+      r.fail(feet, "feet", "give the spacing or the foot frames to measure it from, not both");
   }
   if (const YAML::Node walking = root["walking"]) {
     WalkingParameters& w = s.walking.parameters;

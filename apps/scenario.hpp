@@ -51,6 +51,13 @@ struct BalanceSettings {
   double margin = 0.0;     ///< [m]
 };
 
+/// Feet for the support polygon: size from the user (default: ASIMO-like), spacing from
+/// the user or measured between two foot frames of the model at the home pose.
+struct FeetSettings {
+  FootGeometry geometry;
+  std::string left_frame, right_frame;  ///< e.g. the URDF's ankle or sole links
+};
+
 struct WalkingSettings {
   bool enabled = false;
   WalkingParameters parameters;
@@ -74,6 +81,7 @@ struct Scenario {
   std::vector<ScenarioEvent> events;                    ///< sorted by time
   BalanceSettings balance;
   WalkingSettings walking;
+  FeetSettings feet;
 };
 
 /// @throws ConfigError "FILE:LINE: field: what was expected" for any bad entry.

@@ -173,9 +173,11 @@ int run_scenarios(const std::vector<std::string>& files, const std::string& out,
     const auto run = wbm::run_scenario(s, options);
     wbm::write_outputs(*run, dir, !no_report);
     const json summary = wbm::summarize(*run);
-    for (const auto& [name, e] : summary["elements"].items())
-      std::cerr << "  " << name << ": final error " << e["final_error"].get<double>() << " " << e["unit"].get<std::string>()
-                << "\n";
+    for (const auto& [name, e] : summary["elements"].items()) {
+      std::cerr << "  " << name << ": ";
+      if (e["final_error"].is_null()) std::cerr << "inactive at the end\n";
+      else std::cerr << "final error " << e["final_error"].get<double>() << " " << e["unit"].get<std::string>() << "\n";
+    }
     std::cerr << "  wrote " << dir << "/{trajectory.csv,summary.json" << (no_report ? "" : ",report.html") << "}\n";
   }
   return 0;

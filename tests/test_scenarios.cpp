@@ -139,6 +139,14 @@ TEST(Balance, CompensationKeepsTrackingAsAccurateAsWithoutBalance) {
   EXPECT_GT(std::abs(with->q.back()[ub_x] - with->q.front()[ub_x]), 0.01);  // the upper body did shift
 }
 
+TEST(Balance, UrdfModelWithFeetMeasuredFromItsAnkles) {
+  const auto run = run_scenario(shipped("g1_reach_with_balance"));
+  // G1's ankle roll links are about 0.24 m apart: the support polygon uses that spacing.
+  EXPECT_NEAR(run->feet.spacing, 0.24, 0.03);
+  for (const VectorXd& b : run->balance) ASSERT_GT(b[6], 0.03);  // com inside with 3 cm to spare
+  for (const char* hand : {"l_hand", "r_hand"}) EXPECT_LT(run->error.back()[run->element(hand)], 1e-3) << hand;
+}
+
 TEST(Balance, ZeroAreaSupportAndABadLawHaveDefinedResults) {
   const Model model = make_paper_model();
   Controller c(model);
@@ -252,7 +260,7 @@ TEST(Scenarios, EveryShippedScenarioRunsAndWritesItsOutputs) {
     std::getline(csv, header);
     EXPECT_EQ(header.rfind("time,status,q.", 0), 0u) << header;
   }
-  EXPECT_GE(count, 9);
+  EXPECT_GE(count, 10);
 }
 
 struct BadScenario {
