@@ -11,6 +11,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "cli_runner.hpp"
+
 #include "shipped_models.hpp"
 #include "wbm/kinematics.hpp"
 #include "wbm/paper_model.hpp"
@@ -23,34 +25,12 @@ namespace {
 
 using nlohmann::json;
 
-struct CliRun {
-  int status = -1;
-  std::string out, err;
-};
+using wbm_test::CliRun;
+using wbm_test::read_file;
 
-std::string read_file(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
-/// Runs `wbm ARGS`; stdout is read through popen, stderr goes to a file.
+/// Runs `wbm ARGS`.
 CliRun wbm_cli(const std::string& args) {
-  // Unique per process: CTest runs the test cases of this file in parallel.
-  const std::string err = testing::TempDir() + "wbm_cli_test_" + std::to_string(getpid()) + ".err";
-  const std::string command = std::string("'") + WBM_CLI_PATH + "' " + args + " 2>'" + err + "'";
-  CliRun r;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (pipe == nullptr) return r;
-  char buffer[4096];
-  size_t n;
-  while ((n = fread(buffer, 1, sizeof buffer, pipe)) > 0) r.out.append(buffer, n);
-  const int raw = pclose(pipe);
-  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  r.err = read_file(err);
-  std::remove(err.c_str());
-  return r;
+  return wbm_test::run_command(std::string("'") + WBM_CLI_PATH + "' " + args, "wbm_cli_test");
 }
 
 json parse(const CliRun& r) {

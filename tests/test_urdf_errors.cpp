@@ -16,6 +16,8 @@
 
 #include <gtest/gtest.h>
 
+#include "cli_runner.hpp"
+
 #include "shipped_models.hpp"
 #include "wbm/errors.hpp"
 #include "wbm/urdf_import.hpp"
@@ -118,31 +120,8 @@ TEST_P(MalformedUrdf, ParseUrdfNamesTheGivenSource) {
 }
 
 #ifdef WBM_CLI_PATH
-/// Runs a shell command; returns its exit status and what it wrote to stdout and stderr.
-struct CliRun {
-  int status = -1;
-  std::string out, err;
-};
-
-std::string read_file(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
-CliRun run(const std::string& command, const std::string& tag) {
-  const std::string dir = testing::TempDir() + std::to_string(getpid()) + "_";
-  const std::string out = dir + "wbm_cli_" + tag + ".out", err = dir + "wbm_cli_" + tag + ".err";
-  const int raw = std::system((command + " >" + out + " 2>" + err).c_str());
-  CliRun r;
-  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  r.out = read_file(out);
-  r.err = read_file(err);
-  std::remove(out.c_str());
-  std::remove(err.c_str());
-  return r;
-}
+using wbm_test::CliRun;
+CliRun run(const std::string& command, const std::string& tag) { return wbm_test::run_command(command, tag); }
 #endif
 
 TEST_P(MalformedUrdf, CliExitsNonZeroWithTheMessageOnStderr) {
