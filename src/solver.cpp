@@ -29,8 +29,6 @@ WholeBodySolver::WholeBodySolver(const Model& model, int max_rows, const SolverP
   w_.setZero(n);
   range_sq_.resize(n);
   for (int i = 0; i < n; ++i) range_sq_[i] = model.dof(i).work_range * model.dof(i).work_range;
-  Jt_.setZero(n, m);
-  JWt_.setZero(n, m);
   A_.setZero(m, m);
   L_.setZero(m, m);
   y_.setZero(m);
@@ -55,42 +53,45 @@ void WholeBodySolver::reset() {
 }
 
 bool WholeBodySolver::factorize(int m) {
-  // Cholesky A = L L^T (lower triangle of A), in place on the fixed buffers; L is row-major
-  // so that every inner product runs over contiguous memory.
+  // Cholesky A = L L^T (lower triangle of A) into the column-major L, right-looking, so
+  // that every inner loop is an axpy over a contiguous column.
+  const Eigen::Index ld = L_.outerStride();
   double max_diagonal = 0.0;
-  for (int j = 0; j < m; ++j) max_diagonal = std::max(max_diagonal, A_(j, j));
+  for (int j = 0; j < m; ++j) {
+    max_diagonal = std::max(max_diagonal, A_(j, j));
+    for (int i = j; i < m; ++i) L_(i, j) = A_(i, j);
+  }
   const double tiny = 1e-13 * std::max(max_diagonal, 1e-300);
   for (int j = 0; j < m; ++j) {
-    const double* Lj = &L_(j, 0);
-    double d = A_(j, j);
-    for (int k = 0; k < j; ++k) d -= Lj[k] * Lj[k];
-    if (!(d > tiny)) return false;
-    const double l = std::sqrt(d);
-    L_(j, j) = l;
-    for (int i = j + 1; i < m; ++i) {
-      const double* Li = &L_(i, 0);
-      double sum = A_(i, j);
-      for (int k = 0; k < j; ++k) sum -= Li[k] * Lj[k];
-      L_(i, j) = sum / l;
+    double* __restrict__ cj = L_.data() + j * ld;  // columns never overlap
+    if (!(cj[j] > tiny)) return false;
+    const double l = std::sqrt(cj[j]);
+    cj[j] = l;
+    const double inv = 1.0 / l;
+    for (int i = j + 1; i < m; ++i) cj[i] *= inv;
+    for (int k = j + 1; k < m; ++k) {
+      double* __restrict__ ck = L_.data() + k * ld;
+      const double f = cj[k];
+      for (int i = k; i < m; ++i) ck[i] -= cj[i] * f;
     }
   }
   return true;
 }
 
 void WholeBodySolver::solve_in_place(int m, Eigen::Ref<Eigen::VectorXd> b) const {
-  // L y = b (forward), then L^T x = y (backward, column-oriented): rows of the row-major
-  // factor are contiguous in both.
-  double* x = b.data();
-  for (int i = 0; i < m; ++i) {
-    const double* Li = &L_(i, 0);
-    double sum = x[i];
-    for (int k = 0; k < i; ++k) sum -= Li[k] * x[k];
-    x[i] = sum / Li[i];
+  // L y = b column by column (axpy), then L^T x = y by dot products with the columns.
+  const Eigen::Index ld = L_.outerStride();
+  double* __restrict__ x = b.data();
+  for (int j = 0; j < m; ++j) {
+    const double* __restrict__ cj = L_.data() + j * ld;
+    x[j] /= cj[j];
+    for (int i = j + 1; i < m; ++i) x[i] -= cj[i] * x[j];
   }
-  for (int i = m - 1; i >= 0; --i) {
-    const double* Li = &L_(i, 0);
-    x[i] /= Li[i];
-    for (int k = 0; k < i; ++k) x[k] -= Li[k] * x[i];
+  for (int j = m - 1; j >= 0; --j) {
+    const double* __restrict__ cj = L_.data() + j * ld;
+    double sum = x[j];
+    for (int i = j + 1; i < m; ++i) sum -= cj[i] * x[i];
+    x[j] = sum / cj[j];
   }
 }
 
@@ -154,13 +155,23 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
     out_.qdot_null = -parameters_.nullspace_gain * g_;
     out_.min_singular_value = std::numeric_limits<double>::infinity();
   } else {
-    auto Jt = Jt_.leftCols(m);
-    auto JWt = JWt_.leftCols(m);
-    Jt = J.transpose();
-    JWt.noalias() = w_.asDiagonal() * Jt;
+    // A = J W^-1 J^T as a sum of rank-1 terms w_k J_k J_k^T over the dofs (lower triangle):
+    // contiguous axpy loops, frozen dofs and zero entries skipped.
     auto A = A_.topLeftCorner(m, m);
     for (int j = 0; j < m; ++j)
-      for (int i = j; i < m; ++i) A(i, j) = JWt.col(i).dot(Jt.col(j));
+      for (int i = j; i < m; ++i) A(i, j) = 0.0;
+    const Eigen::Index ldj = J.outerStride();
+    const Eigen::Index lda = A_.outerStride();
+    for (int k = 0; k < n; ++k) {
+      if (w_[k] == 0.0) continue;
+      const double* __restrict__ c = J.data() + k * ldj;
+      for (int j = 0; j < m; ++j) {
+        const double f = w_[k] * c[j];
+        if (f == 0.0) continue;
+        double* __restrict__ a = A_.data() + j * lda;
+        for (int i = j; i < m; ++i) a[i] += f * c[i];
+      }
+    }
     const double lambda_min = estimate_min_eigenvalue(m);
     out_.min_singular_value = std::sqrt(std::max(lambda_min, 0.0));
     const double eps2 = parameters_.singular_threshold * parameters_.singular_threshold;
@@ -179,13 +190,13 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
     auto y = y_.head(m);
     y = xdot;
     solve_in_place(m, y);
-    out_.qdot_task.noalias() = JWt * y;
+    out_.qdot_task.noalias() = J.transpose() * y;
+    out_.qdot_task.array() *= w_.array();
     auto u = u_.head(m);
-    u.noalias() = Jt.transpose() * g_;
+    u.noalias() = J * g_;
     solve_in_place(m, u);
-    out_.qdot_null = g_;
-    out_.qdot_null.noalias() -= JWt * u;
-    out_.qdot_null *= -parameters_.nullspace_gain;
+    out_.qdot_null.noalias() = J.transpose() * u;
+    out_.qdot_null = -parameters_.nullspace_gain * (g_ - w_.cwiseProduct(out_.qdot_null));
   }
 
   const Eigen::VectorXd& vmax = model_.max_speeds();

@@ -58,11 +58,15 @@ int TaskStack::assemble(const Model& model, const Data& data) {
     const int r0 = row_offset_[i];
     if (!activation_.segment(r0, e.dim()).any()) continue;
     const int t0 = target_offset_[i];
+    const bool all = activation_.segment(r0, e.dim()).all();
+    // All rows active (the common case): the element writes straight into the assembled
+    // Jacobian; otherwise into its full rows, and the active ones are copied.
     e.evaluate(model, data, targets_.segment(t0, e.target_dim()), rates_.segment(t0, e.target_dim()),
-               J_full_.middleRows(r0, e.dim()), errors_.segment(r0, e.dim()), feed_forward_.segment(r0, e.dim()));
+               all ? J_.middleRows(active_rows_, e.dim()) : J_full_.middleRows(r0, e.dim()),
+               errors_.segment(r0, e.dim()), feed_forward_.segment(r0, e.dim()));
     for (int r = r0; r < r0 + e.dim(); ++r) {
       if (!activation_[r]) continue;
-      J_.row(active_rows_) = J_full_.row(r);
+      if (!all) J_.row(active_rows_) = J_full_.row(r);
       xdot_[active_rows_] = feed_forward_[r] + e.gain() * errors_[r];
       active_index_[active_rows_] = r;
       ++active_rows_;
