@@ -29,6 +29,7 @@ WholeBodySolver::WholeBodySolver(const Model& model, int max_rows, const SolverP
   w_.setZero(n);
   range_sq_.resize(n);
   for (int i = 0; i < n; ++i) range_sq_[i] = model.dof(i).work_range * model.dof(i).work_range;
+  Jt_.setZero(n, m);
   A_.setZero(m, m);
   L_.setZero(m, m);
   y_.setZero(m);
@@ -53,45 +54,43 @@ void WholeBodySolver::reset() {
 }
 
 bool WholeBodySolver::factorize(int m) {
-  // Cholesky A = L L^T (lower triangle of A) into the column-major L, right-looking, so
-  // that every inner loop is an axpy over a contiguous column.
-  const Eigen::Index ld = L_.outerStride();
+  // Cholesky A = L L^T (lower triangle of A) into the row-major L: every inner product
+  // runs over two contiguous rows.
   double max_diagonal = 0.0;
-  for (int j = 0; j < m; ++j) {
-    max_diagonal = std::max(max_diagonal, A_(j, j));
-    for (int i = j; i < m; ++i) L_(i, j) = A_(i, j);
-  }
+  for (int j = 0; j < m; ++j) max_diagonal = std::max(max_diagonal, A_(j, j));
   const double tiny = 1e-13 * std::max(max_diagonal, 1e-300);
   for (int j = 0; j < m; ++j) {
-    double* __restrict__ cj = L_.data() + j * ld;  // columns never overlap
-    if (!(cj[j] > tiny)) return false;
-    const double l = std::sqrt(cj[j]);
-    cj[j] = l;
+    const double* __restrict__ Lj = &L_(j, 0);
+    double d = A_(j, j);
+    for (int k = 0; k < j; ++k) d -= Lj[k] * Lj[k];
+    if (!(d > tiny)) return false;
+    const double l = std::sqrt(d);
+    L_(j, j) = l;
     const double inv = 1.0 / l;
-    for (int i = j + 1; i < m; ++i) cj[i] *= inv;
-    for (int k = j + 1; k < m; ++k) {
-      double* __restrict__ ck = L_.data() + k * ld;
-      const double f = cj[k];
-      for (int i = k; i < m; ++i) ck[i] -= cj[i] * f;
+    for (int i = j + 1; i < m; ++i) {
+      const double* __restrict__ Li = &L_(i, 0);
+      double sum = A_(i, j);
+      for (int k = 0; k < j; ++k) sum -= Li[k] * Lj[k];
+      L_(i, j) = sum * inv;
     }
   }
   return true;
 }
 
 void WholeBodySolver::solve_in_place(int m, Eigen::Ref<Eigen::VectorXd> b) const {
-  // L y = b column by column (axpy), then L^T x = y by dot products with the columns.
-  const Eigen::Index ld = L_.outerStride();
+  // L y = b by rows (dot products), then L^T x = y by rows of L (axpy): both contiguous.
   double* __restrict__ x = b.data();
-  for (int j = 0; j < m; ++j) {
-    const double* __restrict__ cj = L_.data() + j * ld;
-    x[j] /= cj[j];
-    for (int i = j + 1; i < m; ++i) x[i] -= cj[i] * x[j];
+  for (int i = 0; i < m; ++i) {
+    const double* __restrict__ Li = &L_(i, 0);
+    double sum = x[i];
+    for (int k = 0; k < i; ++k) sum -= Li[k] * x[k];
+    x[i] = sum / Li[i];
   }
-  for (int j = m - 1; j >= 0; --j) {
-    const double* __restrict__ cj = L_.data() + j * ld;
-    double sum = x[j];
-    for (int i = j + 1; i < m; ++i) sum -= cj[i] * x[i];
-    x[j] = sum / cj[j];
+  for (int i = m - 1; i >= 0; --i) {
+    const double* __restrict__ Li = &L_(i, 0);
+    x[i] /= Li[i];
+    const double xi = x[i];
+    for (int k = 0; k < i; ++k) x[k] -= Li[k] * xi;
   }
 }
 
@@ -155,23 +154,35 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
     out_.qdot_null = -parameters_.nullspace_gain * g_;
     out_.min_singular_value = std::numeric_limits<double>::infinity();
   } else {
-    // A = J W^-1 J^T as a sum of rank-1 terms w_k J_k J_k^T over the dofs (lower triangle):
-    // contiguous axpy loops, frozen dofs and zero entries skipped.
-    auto A = A_.topLeftCorner(m, m);
-    for (int j = 0; j < m; ++j)
-      for (int i = j; i < m; ++i) A(i, j) = 0.0;
-    const Eigen::Index ldj = J.outerStride();
-    const Eigen::Index lda = A_.outerStride();
-    for (int k = 0; k < n; ++k) {
-      if (w_[k] == 0.0) continue;
-      const double* __restrict__ c = J.data() + k * ldj;
-      for (int j = 0; j < m; ++j) {
-        const double f = w_[k] * c[j];
-        if (f == 0.0) continue;
-        double* __restrict__ a = A_.data() + j * lda;
-        for (int i = j; i < m; ++i) a[i] += f * c[i];
+    // A = J W^-1 J^T from the task rows stored contiguously (Jt = J^T, n x m), in 2 x 2
+    // blocks of the lower triangle so that each pass over the dofs fills four entries.
+    auto Jt = Jt_.leftCols(m);
+    Jt = J.transpose();
+    const Eigen::Index ld = Jt_.outerStride();
+    const double* __restrict__ w = w_.data();
+    for (int j = 0; j < m; j += 2) {
+      const int j1 = std::min(j + 1, m - 1);
+      const double* __restrict__ a0 = Jt_.data() + j * ld;
+      const double* __restrict__ a1 = Jt_.data() + j1 * ld;
+      for (int i = j; i < m; i += 2) {
+        const int i1 = std::min(i + 1, m - 1);
+        const double* __restrict__ b0 = Jt_.data() + i * ld;
+        const double* __restrict__ b1 = Jt_.data() + i1 * ld;
+        double s00 = 0.0, s01 = 0.0, s10 = 0.0, s11 = 0.0;
+        for (int k = 0; k < n; ++k) {
+          const double wb0 = w[k] * b0[k], wb1 = w[k] * b1[k];
+          s00 += wb0 * a0[k];
+          s01 += wb0 * a1[k];
+          s10 += wb1 * a0[k];
+          s11 += wb1 * a1[k];
+        }
+        A_(i, j) = s00;
+        A_(i, j1) = s01;
+        A_(i1, j) = s10;
+        A_(i1, j1) = s11;
       }
     }
+    auto A = A_.topLeftCorner(m, m);
     const double lambda_min = estimate_min_eigenvalue(m);
     out_.min_singular_value = std::sqrt(std::max(lambda_min, 0.0));
     const double eps2 = parameters_.singular_threshold * parameters_.singular_threshold;

@@ -110,8 +110,9 @@ class WholeBodySolver {
   int max_rows_;
   Eigen::VectorXd w_;         // W^-1 diagonal with frozen dofs zeroed
   Eigen::VectorXd range_sq_;  // r_i^2
-  Eigen::MatrixXd A_;  // J W^-1 J^T (lower triangle used)
-  Eigen::MatrixXd L_;  // its Cholesky factor (lower triangle)
+  Eigen::MatrixXd Jt_;  // J^T (n x m): task rows as contiguous columns
+  Eigen::MatrixXd A_;   // J W^-1 J^T (lower triangle used)
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> L_;  // Cholesky factor
   Eigen::VectorXd y_, v_, g_, u_;
   Eigen::VectorXd previous_null_;
   int previous_rows_ = -1;
