@@ -56,7 +56,6 @@ void Controller::reset(const Eigen::VectorXd& q) {
   value_rates_.setZero(stack_.num_targets());
   commanded_ = values_;
   was_active_.setConstant(stack_.num_elements(), false);
-  free_.setConstant(model_.num_dofs(), true);
   was_row_active_.setConstant(stack_.num_rows(), false);
   for (int i = 0; i < stack_.num_elements(); ++i) {
     const int t0 = stack_.target_offset(i), n = stack_.element(i).target_dim();
@@ -128,24 +127,8 @@ ControllerStatus Controller::update(const Command& command, double dt) {
   if (external && command.compensate_external && m > 0)
     stack_.task_velocity().noalias() -= stack_.jacobian() * external_;
   criterion_->gradient(q_, gradient_);
-  free_ = command.free_dofs;
-  SolverStatus solved;
-  for (int attempt = 0; attempt < 4; ++attempt) {
-    solved = solver_->solve(stack_.jacobian(), stack_.task_velocity(), gradient_, free_, dt);
-    if (!solved.ok() || attempt == 3) break;
-    bool changed = false;
-    const Eigen::VectorXd& v = solver_->output().qdot;
-    for (int i = 0; i < model_.num_dofs(); ++i) {
-      const bool at_lower = q_[i] <= model_.lower_limits()[i] && v[i] < 0.0;
-      const bool at_upper = q_[i] >= model_.upper_limits()[i] && v[i] > 0.0;
-      if (free_[i] && (at_lower || at_upper)) {
-        free_[i] = false;
-        changed = true;
-      }
-    }
-    if (!changed) break;
-    status.flags |= kDofAtLimitFrozen;
-  }
+  const SolverStatus solved =
+      solver_->solve(stack_.jacobian(), stack_.task_velocity(), gradient_, command.free_dofs, dt, &q_);
   status.flags |= solved.flags;
   if (!solved.ok()) {
     qdot_.setZero();

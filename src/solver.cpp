@@ -26,6 +26,7 @@ WholeBodySolver::WholeBodySolver(const Model& model, int max_rows, const SolverP
   if (max_rows < 0) throw ConfigError("solver: max_rows must be >= 0");
   const int n = model.num_dofs();
   const int m = std::max(max_rows, 1);
+  free_.setConstant(n, true);
   w_.setZero(n);
   range_sq_.resize(n);
   for (int i = 0; i < n; ++i) range_sq_[i] = model.dof(i).work_range * model.dof(i).work_range;
@@ -118,39 +119,23 @@ double WholeBodySolver::estimate_min_eigenvalue(int m) {
   return last_estimate_;
 }
 
-SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
-                                    const Eigen::Ref<const Eigen::VectorXd>& xdot,
-                                    const Eigen::Ref<const Eigen::VectorXd>& gradient, const Mask& free_dofs, double dt) {
-  SolverStatus status;
+std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& J,
+                                       const Eigen::Ref<const Eigen::VectorXd>& xdot,
+                                       const Eigen::Ref<const Eigen::VectorXd>& gradient) {
+  std::uint32_t flags = kSolverOk;
   const int n = model_.num_dofs();
   const int m = static_cast<int>(J.rows());
-  out_.qdot.setZero();
-  out_.qdot_task.setZero();
-  out_.qdot_null.setZero();
-  out_.min_singular_value = 0.0;
-  out_.damping = 0.0;
-  out_.nullspace_scale = 1.0;
-  out_.task_scale = 1.0;
-  if (J.cols() != n || xdot.size() != m || gradient.size() != n || free_dofs.size() != n || m > max_rows_ ||
-      !(std::isfinite(dt) && dt > 0.0) || !xdot.allFinite() || !gradient.allFinite()) {
-    status.flags |= kInvalidInput;
-    return status;
-  }
   int free_count = 0;
   for (int i = 0; i < n; ++i) {
-    w_[i] = free_dofs[i] ? range_sq_[i] : 0.0;
-    free_count += free_dofs[i] ? 1 : 0;
+    w_[i] = free_[i] ? range_sq_[i] : 0.0;
+    free_count += free_[i] ? 1 : 0;
   }
-  if (free_count == 0) {
-    status.flags |= kAllDofsFrozen;
-    previous_null_.setZero();
-    return status;
-  }
-  if (m > free_count) status.flags |= kOverdetermined;
-
+  if (free_count == 0) return kAllDofsFrozen;
+  if (m > free_count) flags |= kOverdetermined;
+  out_.damping = 0.0;
   g_ = w_.cwiseProduct(gradient);
   if (m == 0) {
-    status.flags |= kNoActiveRows;
+    flags |= kNoActiveRows;
     out_.qdot_null = -parameters_.nullspace_gain * g_;
     out_.min_singular_value = std::numeric_limits<double>::infinity();
   } else {
@@ -187,7 +172,7 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
     out_.min_singular_value = std::sqrt(std::max(lambda_min, 0.0));
     const double eps2 = parameters_.singular_threshold * parameters_.singular_threshold;
     if (lambda_min < eps2) {
-      status.flags |= kDamped;
+      flags |= kDamped;
       const double max2 = parameters_.max_damping * parameters_.max_damping;
       double damping2 = max2 * (1.0 - std::max(lambda_min, 0.0) / eps2);
       A.diagonal().array() += damping2;
@@ -208,6 +193,60 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
     solve_in_place(m, u);
     out_.qdot_null.noalias() = J.transpose() * u;
     out_.qdot_null = -parameters_.nullspace_gain * (g_ - w_.cwiseProduct(out_.qdot_null));
+  }
+
+  return flags;
+}
+
+SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
+                                    const Eigen::Ref<const Eigen::VectorXd>& xdot,
+                                    const Eigen::Ref<const Eigen::VectorXd>& gradient, const Mask& free_dofs, double dt,
+                                    const Eigen::VectorXd* q) {
+  SolverStatus status;
+  const int n = model_.num_dofs();
+  const int m = static_cast<int>(J.rows());
+  out_.qdot.setZero();
+  out_.qdot_task.setZero();
+  out_.qdot_null.setZero();
+  out_.min_singular_value = 0.0;
+  out_.damping = 0.0;
+  out_.nullspace_scale = 1.0;
+  out_.task_scale = 1.0;
+  if (J.cols() != n || xdot.size() != m || gradient.size() != n || free_dofs.size() != n || m > max_rows_ ||
+      !(std::isfinite(dt) && dt > 0.0) || !xdot.allFinite() || !gradient.allFinite() ||
+      (q != nullptr && q->size() != n)) {
+    status.flags |= kInvalidInput;
+    return status;
+  }
+  // A dof at a position limit that the solution would drive further out is frozen and the
+  // solve repeated (at most three times): the other dofs take over its share.
+  free_ = free_dofs;
+  for (int attempt = 0;; ++attempt) {
+    const std::uint32_t flags = resolve(J, xdot, gradient);
+    if (flags & kAllDofsFrozen) {
+      status.flags |= flags;
+      out_.qdot_task.setZero();
+      out_.qdot_null.setZero();
+      previous_null_.setZero();
+      return status;
+    }
+    bool changed = false;
+    if (q != nullptr && attempt < 3) {
+      for (int i = 0; i < n; ++i) {
+        const double v = out_.qdot_task[i] + out_.qdot_null[i];
+        const bool outwards = ((*q)[i] <= model_.lower_limits()[i] && v < 0.0) ||
+                              ((*q)[i] >= model_.upper_limits()[i] && v > 0.0);
+        if (free_[i] && outwards) {
+          free_[i] = false;
+          changed = true;
+        }
+      }
+    }
+    if (!changed) {
+      status.flags |= flags;
+      break;
+    }
+    status.flags |= kDofAtLimitFrozen;
   }
 
   const Eigen::VectorXd& vmax = model_.max_speeds();

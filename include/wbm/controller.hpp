@@ -107,7 +107,6 @@ class Controller {
   Eigen::VectorXd external_;  // external velocities as realised within the limits
   Mask was_active_, was_row_active_;
   bool needs_center_of_mass_ = false;
-  Mask free_;  // b_C with dofs frozen at their limits
   Eigen::VectorXd commanded_;  // last valid target per element
 };
 

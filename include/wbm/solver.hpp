@@ -90,8 +90,13 @@ class WholeBodySolver {
   /// q_dot = 0.
   /// @param J m x nq Jacobian of the active rows; @param xdot m commanded task velocities;
   /// @param gradient dH/dq (nq); @param free_dofs b_C (nq); @param dt cycle time [s] (jerk limit).
+  /// @param q optional current configuration (nq): a dof at a position limit that the
+  ///   solution would drive further out is then frozen for this solve and the solve repeated
+  ///   (at most three times; kDofAtLimitFrozen), so that the other dofs take over its share
+  ///   instead of the task stalling against the clamp.
   SolverStatus solve(const Eigen::Ref<const Eigen::MatrixXd>& J, const Eigen::Ref<const Eigen::VectorXd>& xdot,
-                     const Eigen::Ref<const Eigen::VectorXd>& gradient, const Mask& free_dofs, double dt);
+                     const Eigen::Ref<const Eigen::VectorXd>& gradient, const Mask& free_dofs, double dt,
+                     const Eigen::VectorXd* q = nullptr);
   const SolverOutput& output() const { return out_; }
   /// Forget the previous null-space velocity (jerk limit) and eigenvector estimate.
   void reset();
@@ -101,6 +106,9 @@ class WholeBodySolver {
   Eigen::MatrixXd pseudo_inverse(const Eigen::MatrixXd& J, const Mask& free_dofs);
 
  private:
+  /// Unscaled task and null-space parts for the dofs in free_; returns status flags.
+  std::uint32_t resolve(const Eigen::Ref<const Eigen::MatrixXd>& J, const Eigen::Ref<const Eigen::VectorXd>& xdot,
+                        const Eigen::Ref<const Eigen::VectorXd>& gradient);
   bool factorize(int m);
   void solve_in_place(int m, Eigen::Ref<Eigen::VectorXd> b) const;
   double estimate_min_eigenvalue(int m);
@@ -108,6 +116,7 @@ class WholeBodySolver {
   const Model& model_;
   SolverParameters parameters_;
   int max_rows_;
+  Mask free_;                 // b_C, plus dofs frozen at their limits
   Eigen::VectorXd w_;         // W^-1 diagonal with frozen dofs zeroed
   Eigen::VectorXd range_sq_;  // r_i^2
   Eigen::MatrixXd Jt_;  // J^T (n x m): task rows as contiguous columns
