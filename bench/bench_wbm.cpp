@@ -1,0 +1,304 @@
+// bench_wbm: wbm against Orocos KDL on the same trees, and the real-time budget.
+//
+// Fixtures (see bench/README.md): the built-in paper model with 3, 6 and 12 rows, the
+// Unitree G1 with 20 rows, Romeo with 12 rows, optionally any URDF (--wbm_urdf=...).
+// Per fixture:
+//   <id>/wbm/kinematics      forward kinematics + the active rows' Jacobians (TaskStack::assemble)
+//   <id>/kdl/kinematics      TreeFkSolverPos_recursive + TreeJntToJacSolver for the endpoints
+//   <id>/wbm/cycle           one Controller::update(): filters, FK, Jacobians, solve, limits
+//   <id>/kdl_wdls/cycle      endpoint FK, twists, TreeIkSolverVel_wdls (6 rows per endpoint), integration
+//   <id>/kdl_arm/cycle       the same with ChainIkSolverVel_pinv_nso on the right arm chain only
+//                            (ChainIkSolverVel_pinv for arms with < 6 joints: the paper model)
+// plus scaling/dofs/<n> and scaling/rows_n<n>/<m> on generated trees (the cycle, and its
+// assemble and solve stages alone: .../assemble, .../solve).
+//
+// Every iteration is one call timed on its own (steady_clock, manual time), so the table at
+// the end gives the median and the 99th percentile of single calls. Nothing asserts on
+// timing; the process fails (exit 1) only if a fixture's sanity check fails.
+//
+// Own flags (before Google Benchmark's): --wbm_urdf=FILE --wbm_root=LINK --wbm_legs=A,B
+// --wbm_hands=LEFT,RIGHT [--wbm_head=FRAME] [--wbm_default_limits] [--wbm_drop_legs]
+// [--wbm_root_height=H] [--wbm_id=NAME] register a fixture "<NAME>" (default "custom") on
+// that model; scripts/bench.sh wraps this.
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstring>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <benchmark/benchmark.h>
+
+#include "bench_common.hpp"
+#include "fixtures.hpp"
+#include "scaling.hpp"
+
+namespace {
+
+using wbm_bench::FixtureSpec;
+
+std::vector<std::string> split(const std::string& s, char sep) {
+  std::vector<std::string> out;
+  std::stringstream in(s);
+  std::string item;
+  while (std::getline(in, item, sep))
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+/// Removes the --wbm_* flags from argv and returns a custom fixture if --wbm_urdf was given.
+bool parse_own_flags(int& argc, char** argv, FixtureSpec& custom, std::string& error) {
+  std::map<std::string, std::string> flags;
+  int out = 1;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a.rfind("--wbm_", 0) == 0) {
+      const std::size_t eq = a.find('=');
+      flags[a.substr(6, eq == std::string::npos ? std::string::npos : eq - 6)] =
+          eq == std::string::npos ? "1" : a.substr(eq + 1);
+    } else {
+      argv[out++] = argv[i];
+    }
+  }
+  argc = out;
+  argv[argc] = nullptr;
+  if (flags.empty()) return false;
+  static const char* known[] = {"urdf", "root", "legs", "hands", "head", "default_limits", "drop_legs", "root_height", "id"};
+  for (const auto& [name, value] : flags)
+    if (std::none_of(std::begin(known), std::end(known), [&](const char* k) { return name == k; })) {
+      error = "unknown flag --wbm_" + name;
+      return false;
+    }
+  if (!flags.count("urdf")) {
+    error = "--wbm_urdf=FILE is required with the other --wbm_ flags";
+    return false;
+  }
+  const std::vector<std::string> hands = split(flags["hands"], ',');
+  if (hands.size() != 2) {
+    error = "--wbm_hands=LEFT,RIGHT (two frame names) is required";
+    return false;
+  }
+  wbm::UrdfImportOptions options;
+  options.root = flags["root"];
+  options.legs = split(flags["legs"], ',');
+  options.default_limits = flags.count("default_limits") > 0;
+  if (flags.count("drop_legs")) options.leg_mode = wbm::LegMode::kDrop;
+  if (flags.count("root_height")) options.root_height = std::stod(flags["root_height"]);
+  const std::string id = flags.count("id") ? flags["id"] : "custom";
+  custom = wbm_bench::custom_fixture(id, flags["urdf"], options, hands[0], hands[1], flags["head"]);
+  return true;
+}
+
+struct Result {
+  double p50_us = 0.0, p99_us = 0.0, mean_us = 0.0;
+};
+
+/// Console output as usual, and the results kept for the tables at the end.
+class TableReporter : public benchmark::ConsoleReporter {
+ public:
+  TableReporter() : ConsoleReporter(isatty(fileno(stdout)) ? OO_ColorTabular : OO_Tabular) {}
+
+  void ReportRuns(const std::vector<Run>& runs) override {
+    ConsoleReporter::ReportRuns(runs);
+    for (const Run& run : runs) {
+      if (run.run_type != Run::RT_Iteration || run.error_occurred || run.iterations == 0) continue;
+      Result r;
+      const auto p50 = run.counters.find("p50_us"), p99 = run.counters.find("p99_us");
+      if (p50 == run.counters.end() || p99 == run.counters.end()) continue;
+      r.p50_us = p50->second.value;
+      r.p99_us = p99->second.value;
+      r.mean_us = run.real_accumulated_time / static_cast<double>(run.iterations) * 1e6;
+      std::string name = run.benchmark_name();
+      const std::string suffix = "/manual_time";
+      if (name.size() > suffix.size() && name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0)
+        name.resize(name.size() - suffix.size());
+      results_[name].push_back(r);
+    }
+  }
+
+  /// Median over repetitions of each statistic.
+  bool get(const std::string& name, Result& out) const {
+    const auto it = results_.find(name);
+    if (it == results_.end() || it->second.empty()) return false;
+    auto median = [&](double Result::*field) {
+      std::vector<double> v;
+      for (const Result& r : it->second) v.push_back(r.*field);
+      std::sort(v.begin(), v.end());
+      return v[v.size() / 2];
+    };
+    out.p50_us = median(&Result::p50_us);
+    out.p99_us = median(&Result::p99_us);
+    out.mean_us = median(&Result::mean_us);
+    return true;
+  }
+
+ private:
+  std::map<std::string, std::vector<Result>> results_;
+};
+
+std::string fmt_us(double us) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.2f", us);
+  return buffer;
+}
+
+std::string fmt_pct(double fraction) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.0f %%", 100.0 * fraction);
+  return buffer;
+}
+
+std::string cell(const TableReporter& rep, const std::string& name) {
+  Result r;
+  if (!rep.get(name, r)) return "-";
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "%.2f / %.2f", r.p50_us, r.p99_us);
+  return buffer;
+}
+
+std::string ratio(const TableReporter& rep, const std::string& slow, const std::string& fast) {
+  Result a, b;
+  if (!rep.get(slow, a) || !rep.get(fast, b) || b.p50_us <= 0.0) return "-";
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.1fx", a.p50_us / b.p50_us);
+  return buffer;
+}
+
+void print_tables(const TableReporter& rep, const std::vector<FixtureSpec>& fixtures) {
+  std::printf("\nTimes of single calls: median / p99 [us] (timer overhead %.1f ns subtracted). "
+              "Ratio = KDL median / wbm median.\n",
+              wbm_bench::timer_overhead_ns());
+  std::printf("KDL's TreeIkSolverVel_wdls solves 6 rows (position + orientation) per endpoint; "
+              "ChainIkSolverVel_pinv_nso (pinv on arms with < 6 joints) solves 6 rows on the right arm chain only.\n\n");
+  std::printf("| fixture | rows | wbm FK+Jacobians | KDL FK+Jacobians | ratio |\n|---|---|---|---|---|\n");
+  for (const FixtureSpec& f : fixtures) {
+    const std::string w = f.id + "/wbm/kinematics", k = f.id + "/kdl/kinematics";
+    Result r;
+    if (!rep.get(w, r) && !rep.get(k, r)) continue;
+    std::printf("| %s | %d | %s | %s | %s |\n", f.id.c_str(), f.rows(), cell(rep, w).c_str(), cell(rep, k).c_str(),
+                ratio(rep, k, w).c_str());
+  }
+  std::printf("\n| fixture | rows | wbm cycle | KDL wdls cycle | ratio | KDL arm chain cycle | ratio |\n"
+              "|---|---|---|---|---|---|---|\n");
+  for (const FixtureSpec& f : fixtures) {
+    const std::string w = f.id + "/wbm/cycle", k = f.id + "/kdl_wdls/cycle", n = f.id + "/kdl_arm/cycle";
+    Result r;
+    if (!rep.get(w, r) && !rep.get(k, r) && !rep.get(n, r)) continue;
+    std::printf("| %s | %d | %s | %s | %s | %s | %s |\n", f.id.c_str(), f.rows(), cell(rep, w).c_str(),
+                cell(rep, k).c_str(), ratio(rep, k, w).c_str(), cell(rep, n).c_str(), ratio(rep, n, w).c_str());
+  }
+  // Stages of the cycle, each timed alone (medians).
+  bool parts_header = false;
+  for (const FixtureSpec& f : fixtures) {
+    Result cycle;
+    if (!rep.get(f.id + "/wbm/cycle", cycle)) continue;
+    std::string row = "| " + f.id + " | " + fmt_us(cycle.p50_us);
+    double sum = 0.0;
+    bool any = false;
+    for (wbm_bench::Part part : wbm_bench::all_parts()) {
+      Result r;
+      if (rep.get(f.id + "/wbm/part/" + wbm_bench::part_name(part), r)) {
+        row += " | " + fmt_us(r.p50_us) + " (" + fmt_pct(r.p50_us / cycle.p50_us) + ")";
+        sum += r.p50_us;
+        any = true;
+      } else {
+        row += " | -";
+      }
+    }
+    if (!any) continue;
+    if (!parts_header) {
+      std::printf("\nStages of the wbm cycle, each timed alone: median [us] (share of the cycle median).\n\n"
+                  "| fixture | cycle");
+      for (wbm_bench::Part part : wbm_bench::all_parts()) std::printf(" | %s", wbm_bench::part_name(part));
+      std::printf(" | rest |\n|---|---");
+      for (std::size_t i = 0; i <= wbm_bench::all_parts().size(); ++i) std::printf("|---");
+      std::printf("|\n");
+      parts_header = true;
+    }
+    row += " | " + fmt_us(cycle.p50_us - sum) + " (" + fmt_pct((cycle.p50_us - sum) / cycle.p50_us) + ") |";
+    std::printf("%s\n", row.c_str());
+  }
+
+  // Goals (informational; nothing fails on timing).
+  struct Goal {
+    const char* id;
+    double budget_us;
+  };
+  bool header = false;
+  for (const Goal& g : {Goal{"paper_r12", 2.0}, Goal{"g1_r20", 5.0}}) {
+    Result r;
+    if (!rep.get(std::string(g.id) + "/wbm/cycle", r)) continue;
+    if (!header) std::printf("\nGoals:\n");
+    header = true;
+    std::printf("  %-10s full cycle median %.2f us <= %.1f us: %s\n", g.id, r.p50_us, g.budget_us,
+                r.p50_us <= g.budget_us ? "met" : "MISSED");
+  }
+  for (const char* id : {"paper_r12", "g1_r20"}) {
+    const std::string f = id;
+    Result a, b;
+    if (!rep.get(f + "/kdl_wdls/cycle", a) || !rep.get(f + "/wbm/cycle", b)) continue;
+    if (!header) std::printf("\nGoals:\n");
+    header = true;
+    std::printf("  %-10s KDL wdls / wbm = %.1fx >= 20x: %s\n", id, a.p50_us / b.p50_us,
+                a.p50_us / b.p50_us >= 20.0 ? "met" : "MISSED");
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  FixtureSpec custom;
+  std::string error;
+  const bool has_custom = parse_own_flags(argc, argv, custom, error);
+  if (!error.empty()) {
+    std::fprintf(stderr, "bench_wbm: %s\n", error.c_str());
+    return 2;
+  }
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 2;
+  wbm_bench::calibrate_timer();
+
+  static std::vector<FixtureSpec> fixtures = wbm_bench::standard_fixtures();
+  if (has_custom) fixtures.push_back(custom);
+  for (const FixtureSpec& f : fixtures) {
+    const FixtureSpec* p = &f;
+    auto reg = [&](const std::string& what, void (*fn)(benchmark::State&, const FixtureSpec*)) {
+      benchmark::RegisterBenchmark((f.id + "/" + what).c_str(), fn, p)->UseManualTime()->Unit(benchmark::kMicrosecond);
+    };
+    reg("wbm/kinematics", wbm_bench::bm_wbm_kinematics);
+    reg("kdl/kinematics", wbm_bench::bm_kdl_kinematics);
+    reg("wbm/cycle", wbm_bench::bm_wbm_cycle);
+    reg("kdl_wdls/cycle", wbm_bench::bm_kdl_wdls_cycle);
+    reg("kdl_arm/cycle", wbm_bench::bm_kdl_arm_cycle);
+    for (wbm_bench::Part part : wbm_bench::all_parts()) {
+      if (part == wbm_bench::Part::kCenterOfMass && !f.com) continue;
+      benchmark::RegisterBenchmark((f.id + "/wbm/part/" + wbm_bench::part_name(part)).c_str(), wbm_bench::bm_wbm_part, p,
+                                   part)
+          ->UseManualTime()
+          ->Unit(benchmark::kMicrosecond);
+    }
+  }
+  static std::vector<wbm_bench::ScalingCase> scaling = wbm_bench::scaling_cases();
+  for (const wbm_bench::ScalingCase& c : scaling)
+    for (wbm_bench::ScalingStage stage :
+         {wbm_bench::ScalingStage::kCycle, wbm_bench::ScalingStage::kAssemble, wbm_bench::ScalingStage::kSolve}) {
+      const std::string suffix = wbm_bench::stage_name(stage);
+      benchmark::RegisterBenchmark((c.name + (suffix.empty() ? "" : "/" + suffix)).c_str(), wbm_bench::bm_scaling, &c, stage)
+          ->UseManualTime()
+          ->Unit(benchmark::kMicrosecond);
+    }
+
+  TableReporter reporter;
+  benchmark::RunSpecifiedBenchmarks(&reporter);
+  std::fflush(stdout);
+  if (!wbm_bench::notes().empty()) {
+    std::printf("\nSanity checks and sizes:\n");
+    for (const std::string& line : wbm_bench::notes()) std::printf("  %s\n", line.c_str());
+  }
+  print_tables(reporter, fixtures);
+  benchmark::Shutdown();
+  return wbm_bench::any_failure() ? 1 : 0;
+}

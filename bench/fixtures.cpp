@@ -1,0 +1,880 @@
+#include "fixtures.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <map>
+#include <memory>
+#include <random>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+#include <kdl/chain.hpp>
+#include <kdl/chainfksolverpos_recursive.hpp>
+#include <kdl/chainiksolvervel_pinv.hpp>
+#include <kdl/chainiksolvervel_pinv_nso.hpp>
+#include <kdl/frames.hpp>
+#include <kdl/jacobian.hpp>
+#include <kdl/jntarray.hpp>
+#include <kdl/tree.hpp>
+#include <kdl/treefksolverpos_recursive.hpp>
+#include <kdl/treeiksolvervel_wdls.hpp>
+#include <kdl/treejnttojacsolver.hpp>
+#include <kdl_parser/kdl_parser.hpp>
+
+#include "bench_common.hpp"
+#include "shipped_models.hpp"
+#include "wbm/controller.hpp"
+#include "wbm/kinematics.hpp"
+#include "wbm/paper_model.hpp"
+#include "wbm/tasks/axis_task.hpp"
+#include "wbm/tasks/com_task.hpp"
+#include "wbm/tasks/joint_task.hpp"
+#include "wbm/tasks/position_task.hpp"
+
+namespace wbm_bench {
+namespace {
+
+using Eigen::VectorXd;
+using wbm::Vector3;
+
+constexpr double kDt = 1e-3;            // controller cycle [s]
+constexpr double kOmega = 2.0 * M_PI * 0.25;  // target motion: 0.25 Hz
+constexpr double kHandAmplitude = 0.04;       // [m]
+constexpr double kComAmplitude = 0.01;        // [m]
+constexpr double kAxisCone = 0.15;            // [rad]
+constexpr double kJointAmplitude = 0.1;       // [rad]
+constexpr double kKdlGain = 10.0;             // [1/s], wbm's default element gain
+constexpr double kKdlLambda = 0.01;           // wdls damping (lambda = 0 gives NaN on wide Jacobians)
+constexpr int kConfigurations = 64;           // random configurations cycled through in (a)
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error("cannot open " + path);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+std::string fmt(const char* format, double a, double b = 0.0, double c = 0.0, double d = 0.0) {
+  char buffer[256];
+  std::snprintf(buffer, sizeof buffer, format, a, b, c, d);
+  return buffer;
+}
+
+/// How the target of one wbm element moves (slowly, never converged).
+struct Motion {
+  enum class Kind { kPosition, kCom, kDirection, kJoint };
+  Kind kind = Kind::kPosition;
+  int t0 = 0, n = 0;  // target offset and size
+  VectorXd base;
+  Vector3 u = Vector3::Zero(), v = Vector3::Zero();  // basis perpendicular to a direction
+
+  void write(double t, Eigen::Ref<VectorXd> target) const {
+    const double s = std::sin(kOmega * t), c = std::cos(kOmega * t);
+    switch (kind) {
+      case Kind::kPosition:
+        target = base + kHandAmplitude * Vector3(s, 1.0 - c, 0.5 * std::sin(2.0 * kOmega * t));
+        break;
+      case Kind::kCom:
+        target = base + kComAmplitude * Vector3(s, 1.0 - c, 0.0);
+        break;
+      case Kind::kDirection:
+        target = std::cos(kAxisCone) * base + std::sin(kAxisCone) * (c * u + s * v);
+        break;
+      case Kind::kJoint:
+        for (int i = 0; i < n; ++i) target[i] = base[i] + kJointAmplitude * std::sin(kOmega * t + i);
+        break;
+    }
+  }
+};
+
+/// Error of one element's value against a target, in its own units ([m] or [rad]).
+double element_error(Motion::Kind kind, const VectorXd& value, const VectorXd& target) {
+  if (kind == Motion::Kind::kDirection) {
+    const Vector3 a = value.head<3>().normalized(), b = target.head<3>().normalized();
+    return std::atan2(a.cross(b).norm(), a.dot(b));
+  }
+  return (value - target).cwiseAbs().maxCoeff();
+}
+
+/// One KDL endpoint: which of its six twist rows stand for wbm rows.
+struct Endpoint {
+  std::string name;
+  bool position = false, orientation = false;
+  KDL::Frame pose, base, target;
+  KDL::Vector u, v;  // perpendicular to the base frame's z-axis (orientation cone)
+  KDL::Twist* twist = nullptr;
+
+  void move(double t) {
+    const double s = std::sin(kOmega * t), c = std::cos(kOmega * t);
+    target = base;
+    if (position)
+      target.p = base.p + kHandAmplitude * KDL::Vector(s, 1.0 - c, 0.5 * std::sin(2.0 * kOmega * t));
+    if (orientation) target.M = KDL::Rotation::Rot(c * u + s * v, kAxisCone) * base.M;
+  }
+};
+
+Vector3 to_eigen(const KDL::Vector& v) { return {v.x(), v.y(), v.z()}; }
+
+void perpendicular_basis(const Vector3& a, Vector3& u, Vector3& v) {
+  const Vector3 n = a.normalized();
+  u = (std::abs(n.x()) < 0.9 ? n.cross(Vector3::UnitX()) : n.cross(Vector3::UnitY())).normalized();
+  v = n.cross(u);
+}
+
+/// Starts an endpoint's moving target at its current pose (cone about the frame's z-axis).
+void start_motion(Endpoint& e) {
+  e.base = e.pose;
+  Vector3 u, v;
+  perpendicular_basis(to_eigen(e.base.M.UnitZ()), u, v);
+  e.u = KDL::Vector(u.x(), u.y(), u.z());
+  e.v = KDL::Vector(v.x(), v.y(), v.z());
+}
+
+}  // namespace
+
+class Fixture {
+ public:
+  explicit Fixture(const FixtureSpec& s);
+
+  void kdl_cycle(double dt);
+  void nso_cycle(double dt);
+  void next_wbm_targets() {
+    t_wbm += kDt;
+    for (const Motion& m : motions) m.write(t_wbm, command.targets.segment(m.t0, m.n));
+  }
+  void next_kdl_targets() {
+    t_kdl += kDt;
+    for (Endpoint& e : endpoints) e.move(t_kdl);
+  }
+  void next_nso_target() {
+    t_nso += kDt;
+    chain_end.move(t_nso);
+  }
+
+  FixtureSpec spec;
+  // wbm
+  std::unique_ptr<wbm::Model> model;
+  std::unique_ptr<wbm::Controller> controller;
+  wbm::Command command;
+  std::vector<Motion> motions;
+  double t_wbm = 0.0;
+  std::unique_ptr<wbm::Data> kin_data;
+  std::unique_ptr<wbm::TaskStack> kin_stack;
+  std::vector<VectorXd> configs;
+  // KDL tree
+  KDL::Tree tree;
+  std::vector<Endpoint> endpoints;  // sorted by name (the order of TreeIkSolverVel_wdls's rows)
+  std::unique_ptr<KDL::TreeFkSolverPos_recursive> fk;
+  std::unique_ptr<KDL::TreeJntToJacSolver> jac;
+  std::unique_ptr<KDL::TreeIkSolverVel_wdls> wdls;
+  KDL::Twists twists;
+  KDL::JntArray kq, kqdot, klower, kupper;
+  std::vector<KDL::JntArray> kconfigs;
+  std::vector<KDL::Jacobian> kjacobians;
+  std::vector<int> kdl_of_dof;  // KDL q_nr of each wbm dof, -1 if none
+  double t_kdl = 0.0;
+  // KDL arm chain
+  std::string chain_root;
+  KDL::Chain chain;
+  std::unique_ptr<KDL::ChainFkSolverPos_recursive> chain_fk;
+  std::unique_ptr<KDL::ChainIkSolverVel> nso;  // pinv_nso, or pinv for arms with < 6 joints
+  std::string arm_solver;
+  KDL::JntArray cq, cqdot, clower, cupper;
+  std::vector<int> dof_of_chain_joint;
+  Endpoint chain_end;
+  double t_nso = 0.0;
+  // Stage benchmarks: states of the moving-target run and what the stages need there.
+  std::vector<VectorXd> states;
+  std::vector<Eigen::MatrixXd> state_J;
+  std::vector<VectorXd> state_xdot, state_gradient, state_qdot;
+  std::unique_ptr<wbm::CubicJointLimitCriterion> criterion;
+  std::unique_ptr<wbm::WholeBodySolver> part_solver;
+  std::vector<wbm::TrajectoryFilter> part_filters;
+  VectorXd part_targets;
+  double t_part = 0.0;
+
+ private:
+  void build_wbm();
+  void build_kdl(const std::string& xml);
+  void build_chain();
+  void check_kinematics_agree();
+  void check_wbm();
+  void check_kdl();
+  void check_nso();
+  void record_states();
+  VectorXd goal_configuration() const;
+  KDL::JntArray to_kdl(const VectorXd& q) const;
+  void add_elements(const std::function<void(std::unique_ptr<wbm::TaskElement>)>& add) const;
+};
+
+int FixtureSpec::rows() const {
+  return 3 * (left_position + right_position + com) + 2 * (left_axis + right_axis + head_axis) +
+         static_cast<int>(joint_task.size());
+}
+
+std::vector<FixtureSpec> standard_fixtures() {
+  std::vector<FixtureSpec> list;
+  FixtureSpec paper;
+  paper.left_hand = "l_hand_ref";
+  paper.right_hand = "r_hand_ref";
+  paper.head = "head_camera";
+
+  FixtureSpec p3 = paper;
+  p3.id = "paper_r3";
+  p3.description = "paper model, right hand position (3 rows)";
+  p3.right_position = true;
+  list.push_back(p3);
+
+  FixtureSpec p6 = p3;
+  p6.id = "paper_r6";
+  p6.description = "paper model, both hand positions (6 rows)";
+  p6.left_position = true;
+  list.push_back(p6);
+
+  FixtureSpec p12 = p6;
+  p12.id = "paper_r12";
+  p12.description = "paper model, both hands position + grasp axis, head view axis (12 rows)";
+  p12.left_axis = p12.right_axis = p12.head_axis = true;
+  list.push_back(p12);
+
+  const wbm_test::ShippedModel& g1 = wbm_test::shipped_model("g1_29dof");
+  FixtureSpec g = custom_fixture("g1_r20", g1.path, g1.options, g1.left_hand, g1.right_hand, g1.head);
+  g.description = "Unitree G1 29 dof (legs locked), hands position + axis, camera view axis, "
+                  "centre of mass (heel), posture of waist yaw, shoulder yaws, wrist rolls (20 rows)";
+  g.com = true;
+  // Posture rows chosen so that the 20 rows stay well conditioned while moving (with the
+  // waist roll/pitch in the posture instead, about a quarter of the cycles are damped).
+  g.joint_task = {"waist_yaw_joint", "left_shoulder_yaw_joint", "right_shoulder_yaw_joint", "left_wrist_roll_joint",
+                  "right_wrist_roll_joint"};
+  list.push_back(g);
+
+  const wbm_test::ShippedModel& romeo = wbm_test::shipped_model("romeo_small");
+  FixtureSpec r =
+      custom_fixture("romeo_r12", romeo.path, romeo.options, romeo.left_hand, romeo.right_hand, romeo.head);
+  r.description = "Romeo (romeo_small, legs locked), hands position + grasp axis, gaze axis (12 rows)";
+  list.push_back(r);
+  return list;
+}
+
+FixtureSpec custom_fixture(const std::string& id, const std::string& urdf, const wbm::UrdfImportOptions& options,
+                           const std::string& left_hand, const std::string& right_hand, const std::string& head) {
+  FixtureSpec s;
+  s.id = id;
+  s.urdf = urdf;
+  s.options = options;
+  s.left_hand = left_hand;
+  s.right_hand = right_hand;
+  s.head = head;
+  s.left_position = s.right_position = s.left_axis = s.right_axis = true;
+  s.head_axis = !head.empty();
+  s.description = urdf + ": hands position + grasp axis" + std::string(head.empty() ? "" : ", head view axis") + " (" +
+                  std::to_string(s.rows()) + " rows)";
+  return s;
+}
+
+// ---------------------------------------------------------------------------------------
+// Construction and checks
+
+Fixture::Fixture(const FixtureSpec& s) : spec(s) {
+  std::string xml;
+  if (spec.urdf.empty()) {
+    model = std::make_unique<wbm::Model>(wbm::make_paper_model());
+    xml = wbm::export_urdf(*model);
+  } else {
+    model = std::make_unique<wbm::Model>(wbm::load_urdf(spec.urdf, spec.options));
+    xml = read_text(spec.urdf);
+  }
+  build_wbm();
+  build_kdl(xml);
+  build_chain();
+  check_kinematics_agree();
+  check_wbm();
+  check_kdl();
+  check_nso();
+}
+
+void Fixture::add_elements(const std::function<void(std::unique_ptr<wbm::TaskElement>)>& add) const {
+  const wbm::Model& m = *model;
+  if (spec.left_position) add(std::make_unique<wbm::PositionTask>(m, "l_pos", spec.left_hand));
+  if (spec.right_position) add(std::make_unique<wbm::PositionTask>(m, "r_pos", spec.right_hand));
+  if (spec.left_axis) add(std::make_unique<wbm::AxisTask>(m, "l_axis", spec.left_hand));
+  if (spec.right_axis) add(std::make_unique<wbm::AxisTask>(m, "r_axis", spec.right_hand));
+  if (spec.head_axis) add(std::make_unique<wbm::AxisTask>(m, "view_axis", spec.head));
+  if (spec.com) add(std::make_unique<wbm::CenterOfMassTask>(m, "com", "heel"));
+  if (!spec.joint_task.empty()) add(std::make_unique<wbm::JointTask>(m, "posture", spec.joint_task));
+}
+
+void Fixture::build_wbm() {
+  const wbm::Model& m = *model;
+  controller = std::make_unique<wbm::Controller>(m);
+  // The default criterion (cubic joint-limit penalty) with activation band 0 instead of 0.3:
+  // the same code, but its gradient is non-zero whenever a joint is off-centre, so that the
+  // null-space projection and the speed/jerk limits of the null-space motion do their full
+  // work in every timed cycle instead of only near the limits.
+  controller->set_criterion(std::make_unique<wbm::CubicJointLimitCriterion>(m, 0.0));
+  add_elements([&](std::unique_ptr<wbm::TaskElement> e) { controller->add_task(std::move(e)); });
+  controller->reset(m.home());
+  command = controller->make_command();
+  const wbm::VirtualDofs& v = m.virtual_dofs();
+  for (int heel : {v.heel_x, v.heel_y, v.heel_yaw})
+    if (heel >= 0) command.free_dofs[heel] = false;  // standing: heel frozen
+
+  const wbm::TaskStack& stack = controller->tasks();
+  for (int i = 0; i < stack.num_elements(); ++i) {
+    Motion motion;
+    const wbm::TaskElement& e = stack.element(i);
+    motion.t0 = stack.target_offset(i);
+    motion.n = e.target_dim();
+    if (e.target_kind() == wbm::TargetKind::kDirection)
+      motion.kind = Motion::Kind::kDirection;
+    else if (dynamic_cast<const wbm::CenterOfMassTask*>(&e) != nullptr)
+      motion.kind = Motion::Kind::kCom;
+    else if (dynamic_cast<const wbm::JointTask*>(&e) != nullptr)
+      motion.kind = Motion::Kind::kJoint;
+    else
+      motion.kind = Motion::Kind::kPosition;
+    motions.push_back(motion);
+  }
+
+  kin_data = std::make_unique<wbm::Data>(m);
+  kin_stack = std::make_unique<wbm::TaskStack>(m);
+  add_elements([&](std::unique_ptr<wbm::TaskElement> e) { kin_stack->add(std::move(e)); });
+  std::mt19937_64 rng(42);
+  for (int k = 0; k < kConfigurations; ++k) {
+    VectorXd q(m.num_dofs());
+    for (int i = 0; i < q.size(); ++i) {
+      const wbm::Dof& d = m.dof(i);
+      q[i] = d.continuous ? std::uniform_real_distribution<double>(-3.0, 3.0)(rng)
+                          : std::uniform_real_distribution<double>(d.lower, d.upper)(rng);
+    }
+    configs.push_back(q);
+  }
+}
+
+KDL::JntArray Fixture::to_kdl(const VectorXd& q) const {
+  KDL::JntArray k(tree.getNrOfJoints());  // joints without a wbm dof (locked legs) stay at 0
+  for (int i = 0; i < q.size(); ++i)
+    if (kdl_of_dof[i] >= 0) k(kdl_of_dof[i]) = q[i];
+  return k;
+}
+
+void Fixture::build_kdl(const std::string& xml) {
+  if (!kdl_parser::treeFromString(xml, tree)) throw std::runtime_error(spec.id + ": kdl_parser rejected the URDF");
+  const unsigned nj = tree.getNrOfJoints();
+  std::map<std::string, int> q_nr;
+  for (const auto& [name, element] : tree.getSegments()) {
+    const KDL::Joint& joint = GetTreeElementSegment(element).getJoint();
+    if (joint.getType() != KDL::Joint::None) q_nr[joint.getName()] = static_cast<int>(GetTreeElementQNr(element));
+  }
+  kdl_of_dof.assign(model->num_dofs(), -1);
+  klower.resize(nj);
+  kupper.resize(nj);
+  for (unsigned i = 0; i < nj; ++i) {
+    klower(i) = -std::numeric_limits<double>::infinity();
+    kupper(i) = std::numeric_limits<double>::infinity();
+  }
+  for (int i = 0; i < model->num_dofs(); ++i) {
+    const auto it = q_nr.find(model->dof(i).name);
+    if (it == q_nr.end()) continue;
+    kdl_of_dof[i] = it->second;
+    klower(it->second) = model->dof(i).lower;
+    kupper(it->second) = model->dof(i).upper;
+  }
+  for (const VectorXd& q : configs) kconfigs.push_back(to_kdl(q));
+
+  std::map<std::string, Endpoint> by_name;  // sorted, as TreeIkSolverVel_wdls orders its rows
+  auto add = [&](const std::string& name, bool position, bool orientation) {
+    if (tree.getSegments().count(name) == 0) throw std::runtime_error(spec.id + ": no KDL segment " + name);
+    Endpoint& e = by_name[name];
+    e.name = name;
+    e.position |= position;
+    e.orientation |= orientation;
+  };
+  if (spec.left_position || spec.left_axis) add(spec.left_hand, spec.left_position, spec.left_axis);
+  if (spec.right_position || spec.right_axis) add(spec.right_hand, spec.right_position, spec.right_axis);
+  if (spec.head_axis) add(spec.head, false, true);
+  std::vector<std::string> names;
+  for (auto& [name, e] : by_name) {
+    endpoints.push_back(e);
+    names.push_back(name);
+  }
+  fk = std::make_unique<KDL::TreeFkSolverPos_recursive>(tree);
+  jac = std::make_unique<KDL::TreeJntToJacSolver>(tree);
+  wdls = std::make_unique<KDL::TreeIkSolverVel_wdls>(tree, names);
+  wdls->setLambda(kKdlLambda);
+  // Task-space weights: rows that stand for no wbm row (orientation of a position-only
+  // endpoint, position of a view axis) get weight 0. The matrices keep 6 rows per endpoint.
+  const int rows = 6 * static_cast<int>(endpoints.size());
+  Eigen::MatrixXd Wy = Eigen::MatrixXd::Zero(rows, rows);
+  for (int k = 0; k < static_cast<int>(endpoints.size()); ++k)
+    for (int r = 0; r < 6; ++r) Wy(6 * k + r, 6 * k + r) = (r < 3 ? endpoints[k].position : endpoints[k].orientation);
+  wdls->setWeightTS(Wy);
+  for (Endpoint& e : endpoints) {
+    twists[e.name] = KDL::Twist::Zero();
+    kjacobians.emplace_back(nj);
+  }
+  for (Endpoint& e : endpoints) e.twist = &twists.at(e.name);
+  kq = to_kdl(model->home());
+  kqdot.resize(nj);
+}
+
+void Fixture::build_chain() {
+  // Arm chain: from the common ancestor of both hands (the torso/upper body) to the right hand.
+  const KDL::SegmentMap& segments = tree.getSegments();
+  std::set<std::string> left_ancestors;
+  for (auto it = segments.find(spec.left_hand); it != segments.end();) {
+    left_ancestors.insert(it->first);
+    if (it == tree.getRootSegment()) break;
+    it = GetTreeElementParent(it->second);
+  }
+  for (auto it = segments.find(spec.right_hand); it != segments.end();) {
+    if (left_ancestors.count(it->first)) {
+      chain_root = it->first;
+      break;
+    }
+    if (it == tree.getRootSegment()) break;
+    it = GetTreeElementParent(it->second);
+  }
+  if (chain_root.empty() || !tree.getChain(chain_root, spec.right_hand, chain))
+    throw std::runtime_error(spec.id + ": no KDL chain to " + spec.right_hand);
+  const unsigned nj = chain.getNrOfJoints();
+  KDL::JntArray opt(nj), weights(nj);
+  cq.resize(nj);
+  cqdot.resize(nj);
+  clower.resize(nj);
+  cupper.resize(nj);
+  unsigned j = 0;
+  for (const KDL::Segment& segment : chain.segments) {
+    if (segment.getJoint().getType() == KDL::Joint::None) continue;
+    const int dof = model->find_dof(segment.getJoint().getName());
+    dof_of_chain_joint.push_back(dof);
+    clower(j) = dof >= 0 ? model->dof(dof).lower : -M_PI;
+    cupper(j) = dof >= 0 ? model->dof(dof).upper : M_PI;
+    opt(j) = 0.5 * (clower(j) + cupper(j));
+    weights(j) = 1.0;
+    cq(j) = dof >= 0 ? model->home()[dof] : 0.0;
+    ++j;
+  }
+  chain_fk = std::make_unique<KDL::ChainFkSolverPos_recursive>(chain);
+  // KDL 1.5.1's ChainIkSolverVel_pinv_nso copies the 6 twist entries into a vector of nj
+  // entries (out of bounds for arms with fewer than 6 joints, e.g. the paper model's 5);
+  // such an arm has no null space for a 6-row task anyway, so plain pinv is used there.
+  if (nj >= 6) {
+    nso = std::make_unique<KDL::ChainIkSolverVel_pinv_nso>(chain, opt, weights);
+    arm_solver = "ChainIkSolverVel_pinv_nso";
+  } else {
+    nso = std::make_unique<KDL::ChainIkSolverVel_pinv>(chain);
+    arm_solver = "ChainIkSolverVel_pinv (pinv_nso needs >= 6 joints)";
+  }
+  chain_end.name = spec.right_hand;
+  chain_end.position = true;
+  chain_end.orientation = spec.right_axis;
+}
+
+void Fixture::check_kinematics_agree() {
+  // Both libraries agree on every endpoint pose relative to the root link.
+  const std::string root = model->body(model->virtual_dofs().upper_body).name;
+  for (int k = 0; k < 4; ++k) {
+    wbm::forward_kinematics(*model, *kin_data, configs[k]);
+    const wbm::Transform X_root = wbm::frame_pose(*model, *kin_data, model->frame_index(root));
+    KDL::Frame kdl_root;
+    if (fk->JntToCart(kconfigs[k], kdl_root, root) < 0) throw std::runtime_error(spec.id + ": KDL has no root " + root);
+    for (const Endpoint& e : endpoints) {
+      const wbm::Transform ours = X_root.inverse() * wbm::frame_pose(*model, *kin_data, model->frame_index(e.name));
+      KDL::Frame pose;
+      fk->JntToCart(kconfigs[k], pose, e.name);
+      const KDL::Frame theirs = kdl_root.Inverse() * pose;
+      double rot = 0.0;
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) rot = std::max(rot, std::abs(ours.R(r, c) - theirs.M(r, c)));
+      if ((ours.p - to_eigen(theirs.p)).norm() > 1e-9 || rot > 1e-9)
+        throw std::runtime_error(spec.id + ": wbm and KDL disagree on the pose of " + e.name);
+    }
+  }
+}
+
+VectorXd Fixture::goal_configuration() const {
+  // A reachable goal: home moved by up to 10 % of each range (heel dofs kept).
+  std::mt19937_64 rng(7);
+  VectorXd q = model->home();
+  const wbm::VirtualDofs& v = model->virtual_dofs();
+  for (int i = 0; i < q.size(); ++i) {
+    if (i == v.heel_x || i == v.heel_y || i == v.heel_yaw) continue;
+    const wbm::Dof& d = model->dof(i);
+    const double range = d.continuous ? 2.0 * M_PI : d.upper - d.lower;
+    q[i] += std::uniform_real_distribution<double>(-0.1, 0.1)(rng) * range;
+    if (!d.continuous) q[i] = std::clamp(q[i], d.lower + 0.1 * range, d.upper - 0.1 * range);
+  }
+  return q;
+}
+
+void Fixture::check_wbm() {
+  wbm::Controller& c = *controller;
+  const int ne = static_cast<int>(motions.size());
+  // 1. Converges: targets = the task values of a reachable configuration.
+  const VectorXd q_goal = goal_configuration();
+  wbm::forward_kinematics(*model, *kin_data, q_goal);
+  if (model->total_mass() > 0.0) wbm::center_of_mass(*model, *kin_data);
+  VectorXd goal(kin_stack->num_targets());
+  kin_stack->values(*model, *kin_data, goal);
+  command.targets = goal;
+  std::vector<double> start_error(ne), error(ne);
+  for (int i = 0; i < ne; ++i)
+    start_error[i] = element_error(motions[i].kind, c.values().segment(motions[i].t0, motions[i].n),
+                                   goal.segment(motions[i].t0, motions[i].n));
+  for (int k = 0; k < 4000; ++k) {
+    const wbm::ControllerStatus status = c.update(command, kDt);
+    if (!status.ok()) throw std::runtime_error(spec.id + ": controller cycle failed while converging");
+  }
+  double worst_position = 0.0, worst_angle = 0.0, largest_start = 0.0;
+  for (int i = 0; i < ne; ++i) {
+    const Motion& m = motions[i];
+    error[i] = element_error(m.kind, c.values().segment(m.t0, m.n), goal.segment(m.t0, m.n));
+    if (m.kind == Motion::Kind::kDirection || m.kind == Motion::Kind::kJoint)
+      worst_angle = std::max(worst_angle, error[i]);
+    else
+      worst_position = std::max(worst_position, error[i]);
+    largest_start = std::max(largest_start, start_error[i]);
+  }
+  note(spec.id + ": wbm converges to the task values of a reachable configuration in 4 s: error " +
+       fmt("%.2g m / %.2g rad (largest start error %.3g)", worst_position, worst_angle, largest_start));
+  if (!(worst_position < 2e-3 && worst_angle < 2e-2))
+    throw std::runtime_error(spec.id + ": wbm controller did not converge");
+
+  // 2. Moves: track the moving targets; every cycle does filters, FK, Jacobians, solve, limits.
+  for (Motion& m : motions) {
+    m.base = c.values().segment(m.t0, m.n);
+    if (m.kind == Motion::Kind::kDirection) perpendicular_basis(m.base.head<3>(), m.u, m.v);
+  }
+  const VectorXd q_start = c.q();
+  int damped = 0, frozen = 0, null_motion = 0, scaled = 0;
+  double tracking = 0.0, travelled = 0.0;
+  const int cycles = 3000;
+  VectorXd previous = c.values();
+  for (int k = 0; k < cycles; ++k) {
+    next_wbm_targets();
+    const wbm::ControllerStatus status = c.update(command, kDt);
+    if (!status.ok()) throw std::runtime_error(spec.id + ": controller cycle failed while moving");
+    damped += status.has(wbm::kDamped);
+    frozen += status.has(wbm::kDofAtLimitFrozen);
+    scaled += status.has(wbm::kNullSpaceSpeedScaled) || status.has(wbm::kNullSpaceJerkLimited) ||
+              status.has(wbm::kTaskSpeedLimited);
+    null_motion += c.solver().output().qdot_null.norm() > 0.0;
+    travelled += (c.values().segment(motions[0].t0, 3) - previous.segment(motions[0].t0, 3)).norm();
+    previous = c.values();
+    if (k >= 1000 && k < 1064) states.push_back(c.q());  // 64 consecutive cycles (warm starts as in the loop)
+    if (k >= 1000)
+      for (const Motion& m : motions)
+        if (m.kind == Motion::Kind::kPosition)
+          tracking = std::max(tracking, element_error(m.kind, c.values().segment(m.t0, m.n),
+                                                      c.filtered_targets().segment(m.t0, m.n)));
+  }
+  note(spec.id + ": wbm moving targets, 3 s: first element travelled " + fmt("%.3f", travelled) +
+       ", max position error to the filtered target " + fmt("%.2g m", tracking) + ", joints moved " +
+       fmt("%.3f rad (norm)", (c.q() - q_start).norm()) + "; cycles with null-space motion " +
+       fmt("%.0f %%, damped %.0f %%, limit-frozen dof %.0f %%, speed/jerk-scaled %.0f %%", 100.0 * null_motion / cycles,
+           100.0 * damped / cycles, 100.0 * frozen / cycles, 100.0 * scaled / cycles));
+  if (!(travelled > 0.05 && tracking < 5e-3)) throw std::runtime_error(spec.id + ": wbm controller does not track");
+  record_states();
+  note(spec.id + ": wbm " + std::to_string(model->num_dofs()) + " dofs (heel frozen: " +
+       std::to_string(model->num_dofs() - 3) + " free), " + std::to_string(controller->tasks().num_rows()) +
+       " rows; KDL tree " + std::to_string(tree.getNrOfJoints()) + " joints, wdls " +
+       std::to_string(6 * endpoints.size()) + " rows (" + std::to_string(endpoints.size()) +
+       " endpoints x 6), arm chain " + chain_root + " -> " + spec.right_hand + " " +
+       std::to_string(chain.getNrOfJoints()) + " joints x 6 rows");
+}
+
+void Fixture::record_states() {
+  // Inputs of each stage at the recorded states, as the controller sees them.
+  const wbm::Model& m = *model;
+  criterion = std::make_unique<wbm::CubicJointLimitCriterion>(m, 0.0);
+  kin_stack->targets() = controller->filtered_targets();
+  kin_stack->target_rates().setZero();
+  for (const VectorXd& q : states) {
+    wbm::forward_kinematics(m, *kin_data, q);
+    if (spec.com) wbm::center_of_mass(m, *kin_data);
+    kin_stack->assemble(m, *kin_data);
+    state_J.emplace_back(kin_stack->jacobian());
+    state_xdot.emplace_back(kin_stack->task_velocity());
+    VectorXd g(m.num_dofs());
+    criterion->gradient(q, g);
+    state_gradient.push_back(g);
+  }
+  part_solver = std::make_unique<wbm::WholeBodySolver>(m, kin_stack->num_rows());
+  for (std::size_t k = 0; k < states.size(); ++k) {
+    part_solver->solve(state_J[k], state_xdot[k], state_gradient[k], command.free_dofs, kDt);
+    state_qdot.push_back(part_solver->output().qdot);
+  }
+  const wbm::TaskStack& stack = controller->tasks();
+  part_targets = command.targets;
+  for (int i = 0; i < stack.num_elements(); ++i) {
+    const wbm::TaskElement& e = stack.element(i);
+    part_filters.emplace_back(e.target_kind(), e.target_dim(), wbm::FilterParameters{});
+    part_filters.back().reset(controller->values().segment(stack.target_offset(i), e.target_dim()),
+                              VectorXd::Zero(e.target_dim()));
+  }
+}
+
+void Fixture::check_kdl() {
+  // wdls closed loop converges to the endpoint poses of the same reachable configuration.
+  const KDL::JntArray goal = to_kdl(goal_configuration());
+  for (Endpoint& e : endpoints) {
+    fk->JntToCart(goal, e.base, e.name);
+    e.target = e.base;
+  }
+  for (int k = 0; k < 4000; ++k) kdl_cycle(kDt);
+  double worst_position = 0.0, worst_angle = 0.0;
+  for (Endpoint& e : endpoints) {
+    fk->JntToCart(kq, e.pose, e.name);
+    const KDL::Twist d = KDL::diff(e.pose, e.target);
+    if (e.position) worst_position = std::max(worst_position, d.vel.Norm());
+    if (e.orientation) worst_angle = std::max(worst_angle, d.rot.Norm());
+  }
+  note(spec.id + ": KDL wdls closed loop (gain 10/s, lambda 0.01) converges in 4 s: error " +
+       fmt("%.2g m / %.2g rad", worst_position, worst_angle));
+  if (!(worst_position < 2e-3 && worst_angle < 2e-2)) throw std::runtime_error(spec.id + ": KDL wdls did not converge");
+  for (Endpoint& e : endpoints) start_motion(e);
+  const KDL::JntArray start = kq;
+  for (int k = 0; k < 1000; ++k) {
+    next_kdl_targets();
+    kdl_cycle(kDt);
+  }
+  double moved = 0.0;
+  for (unsigned i = 0; i < kq.rows(); ++i) moved += (kq(i) - start(i)) * (kq(i) - start(i));
+  if (!(std::sqrt(moved) > 1e-3) || !kq.data.allFinite()) throw std::runtime_error(spec.id + ": KDL wdls does not move");
+}
+
+void Fixture::check_nso() {
+  KDL::JntArray goal(chain.getNrOfJoints());
+  const VectorXd q_goal = goal_configuration();
+  for (unsigned j = 0; j < goal.rows(); ++j)
+    goal(j) = dof_of_chain_joint[j] >= 0 ? q_goal[dof_of_chain_joint[j]] : 0.0;
+  chain_fk->JntToCart(goal, chain_end.base);
+  chain_end.target = chain_end.base;
+  for (int k = 0; k < 4000; ++k) nso_cycle(kDt);
+  chain_fk->JntToCart(cq, chain_end.pose);
+  const KDL::Twist d = KDL::diff(chain_end.pose, chain_end.target);
+  note(spec.id + ": KDL " + arm_solver + " arm closed loop converges in 4 s: error " +
+       fmt("%.2g m / %.2g rad", d.vel.Norm(), d.rot.Norm()));
+  if (!(d.vel.Norm() < 2e-3)) throw std::runtime_error(spec.id + ": KDL arm solver did not converge");
+  start_motion(chain_end);
+}
+
+// ---------------------------------------------------------------------------------------
+// KDL cycles
+
+void Fixture::kdl_cycle(double dt) {
+  for (Endpoint& e : endpoints) {
+    fk->JntToCart(kq, e.pose, e.name);
+    *e.twist = KDL::diff(e.pose, e.target) * kKdlGain;
+  }
+  wdls->CartToJnt(kq, twists, kqdot);
+  for (unsigned i = 0; i < kq.rows(); ++i) kq(i) = std::clamp(kq(i) + kqdot(i) * dt, klower(i), kupper(i));
+}
+
+void Fixture::nso_cycle(double dt) {
+  chain_fk->JntToCart(cq, chain_end.pose);
+  const KDL::Twist twist = KDL::diff(chain_end.pose, chain_end.target) * kKdlGain;
+  nso->CartToJnt(cq, twist, cqdot);
+  for (unsigned i = 0; i < cq.rows(); ++i) cq(i) = std::clamp(cq(i) + cqdot(i) * dt, clower(i), cupper(i));
+}
+
+// ---------------------------------------------------------------------------------------
+// Benchmarks
+
+namespace {
+
+Fixture* get(benchmark::State& state, const FixtureSpec* spec) {
+  static std::map<std::string, std::unique_ptr<Fixture>> built;
+  static std::map<std::string, std::string> errors;
+  if (errors.count(spec->id)) {
+    state.SkipWithError(errors[spec->id].c_str());
+    return nullptr;
+  }
+  auto it = built.find(spec->id);
+  if (it != built.end()) return it->second.get();
+  try {
+    note(spec->id + ": " + spec->description);
+    auto f = std::make_unique<Fixture>(*spec);
+    return built.emplace(spec->id, std::move(f)).first->second.get();
+  } catch (const std::exception& e) {
+    errors[spec->id] = e.what();
+    fail(e.what());
+    state.SkipWithError(errors[spec->id].c_str());
+    return nullptr;
+  }
+}
+
+}  // namespace
+
+void bm_wbm_kinematics(benchmark::State& state, const FixtureSpec* spec) {
+  Fixture* f = get(state, spec);
+  if (f == nullptr) return;
+  const wbm::Model& m = *f->model;
+  const bool com = spec->com;
+  std::size_t k = 0;
+  timed_loop(
+      state, [&] { ++k; },
+      [&] {
+        wbm::forward_kinematics(m, *f->kin_data, f->configs[k % kConfigurations]);
+        if (com) wbm::center_of_mass(m, *f->kin_data);
+        benchmark::DoNotOptimize(f->kin_stack->assemble(m, *f->kin_data));
+      });
+  state.counters["rows"] = f->kin_stack->num_rows();
+  state.counters["dofs"] = m.num_dofs();
+}
+
+void bm_kdl_kinematics(benchmark::State& state, const FixtureSpec* spec) {
+  Fixture* f = get(state, spec);
+  if (f == nullptr) return;
+  std::size_t k = 0;
+  timed_loop(
+      state, [&] { ++k; },
+      [&] {
+        const KDL::JntArray& q = f->kconfigs[k % kConfigurations];
+        for (std::size_t e = 0; e < f->endpoints.size(); ++e) {
+          f->fk->JntToCart(q, f->endpoints[e].pose, f->endpoints[e].name);
+          f->jac->JntToJac(q, f->kjacobians[e], f->endpoints[e].name);
+        }
+        benchmark::ClobberMemory();
+      });
+  state.counters["rows"] = 6.0 * static_cast<double>(f->endpoints.size());
+  state.counters["dofs"] = f->tree.getNrOfJoints();
+}
+
+const char* part_name(Part part) {
+  switch (part) {
+    case Part::kFilters: return "filters";
+    case Part::kForwardKinematics: return "fk";
+    case Part::kCenterOfMass: return "com";
+    case Part::kValues: return "values";
+    case Part::kAssemble: return "assemble";
+    case Part::kGradient: return "gradient";
+    case Part::kSolve: return "solve";
+    case Part::kIntegrate: return "integrate";
+  }
+  return "?";
+}
+
+std::vector<Part> all_parts() {
+  return {Part::kFilters, Part::kForwardKinematics, Part::kCenterOfMass, Part::kValues,
+          Part::kAssemble, Part::kGradient, Part::kSolve, Part::kIntegrate};
+}
+
+void bm_wbm_part(benchmark::State& state, const FixtureSpec* spec, Part part) {
+  Fixture* f = get(state, spec);
+  if (f == nullptr) return;
+  if (part == Part::kCenterOfMass && !spec->com) {
+    state.SkipWithError("no centre-of-mass element (the controller skips it)");
+    return;
+  }
+  const wbm::Model& m = *f->model;
+  wbm::Data& data = *f->kin_data;
+  wbm::TaskStack& stack = *f->kin_stack;
+  const std::size_t n = f->states.size();
+  std::size_t k = 0;
+  VectorXd x(stack.num_targets()), g(m.num_dofs()), q_next(m.num_dofs());
+  auto next = [&] { k = (k + 1) % n; };
+  auto next_with_fk = [&] {
+    k = (k + 1) % n;
+    wbm::forward_kinematics(m, data, f->states[k]);
+    if (spec->com) wbm::center_of_mass(m, data);
+  };
+  switch (part) {
+    case Part::kFilters:
+      timed_loop(
+          state,
+          [&] {
+            f->t_part += kDt;
+            for (const Motion& mo : f->motions) mo.write(f->t_part, f->part_targets.segment(mo.t0, mo.n));
+          },
+          [&] {
+            for (std::size_t i = 0; i < f->part_filters.size(); ++i)
+              f->part_filters[i].update(f->part_targets.segment(f->motions[i].t0, f->motions[i].n), kDt);
+          });
+      break;
+    case Part::kForwardKinematics:
+      timed_loop(state, next, [&] { wbm::forward_kinematics(m, data, f->states[k]); });
+      break;
+    case Part::kCenterOfMass:
+      timed_loop(state, next_with_fk, [&] { benchmark::DoNotOptimize(wbm::center_of_mass(m, data)); });
+      break;
+    case Part::kValues:
+      timed_loop(state, next_with_fk, [&] { stack.values(m, data, x); });
+      break;
+    case Part::kAssemble:
+      timed_loop(state, next_with_fk, [&] { benchmark::DoNotOptimize(stack.assemble(m, data)); });
+      break;
+    case Part::kGradient:
+      timed_loop(state, next, [&] { f->criterion->gradient(f->states[k], g); });
+      break;
+    case Part::kSolve:
+      timed_loop(state, next, [&] {
+        benchmark::DoNotOptimize(
+            f->part_solver->solve(f->state_J[k], f->state_xdot[k], f->state_gradient[k], f->command.free_dofs, kDt));
+      });
+      break;
+    case Part::kIntegrate:
+      timed_loop(state, next,
+                 [&] { benchmark::DoNotOptimize(wbm::integrate(m, f->states[k], f->state_qdot[k], kDt, q_next)); });
+      break;
+  }
+  benchmark::ClobberMemory();
+}
+
+void bm_wbm_cycle(benchmark::State& state, const FixtureSpec* spec) {
+  Fixture* f = get(state, spec);
+  if (f == nullptr) return;
+  wbm::Controller& c = *f->controller;
+  std::uint32_t flags = 0, last = 0;
+  std::int64_t damped = 0, frozen = 0, cycles = 0;
+  timed_loop(
+      state,
+      [&] {
+        // Bookkeeping of the previous cycle's status (untimed), then the next targets.
+        flags |= last;
+        damped += (last & wbm::kDamped) != 0;
+        frozen += (last & wbm::kDofAtLimitFrozen) != 0;
+        f->next_wbm_targets();
+      },
+      [&] {
+        last = c.update(f->command, kDt).flags;
+        ++cycles;
+      });
+  flags |= last;
+  if ((flags & (static_cast<std::uint32_t>(wbm::kInvalidCommand) | wbm::kInvalidInput)) != 0) state.SkipWithError("controller cycle failed");
+  // Share of cycles that took the damped path (extra factorisation) or re-solved after
+  // freezing a dof at its limit: these explain a p99 well above the median.
+  state.counters["damped_pct"] = cycles > 0 ? 100.0 * static_cast<double>(damped) / static_cast<double>(cycles) : 0.0;
+  state.counters["refrozen_pct"] = cycles > 0 ? 100.0 * static_cast<double>(frozen) / static_cast<double>(cycles) : 0.0;
+  state.counters["rows"] = c.tasks().num_rows();
+  state.counters["dofs"] = f->model->num_dofs();
+}
+
+void bm_kdl_wdls_cycle(benchmark::State& state, const FixtureSpec* spec) {
+  Fixture* f = get(state, spec);
+  if (f == nullptr) return;
+  timed_loop(
+      state, [&] { f->next_kdl_targets(); }, [&] { f->kdl_cycle(kDt); });
+  if (!f->kq.data.allFinite()) state.SkipWithError("KDL wdls produced NaN");
+  state.counters["rows"] = 6.0 * static_cast<double>(f->endpoints.size());
+  state.counters["dofs"] = f->tree.getNrOfJoints();
+}
+
+void bm_kdl_arm_cycle(benchmark::State& state, const FixtureSpec* spec) {
+  Fixture* f = get(state, spec);
+  if (f == nullptr) return;
+  timed_loop(
+      state, [&] { f->next_nso_target(); }, [&] { f->nso_cycle(kDt); });
+  if (!f->cq.data.allFinite()) state.SkipWithError("KDL arm solver produced NaN");
+  state.counters["rows"] = 6;
+  state.counters["dofs"] = f->chain.getNrOfJoints();
+}
+
+}  // namespace wbm_bench

@@ -1,0 +1,60 @@
+#pragma once
+/// @file
+/// Benchmark fixtures of bench_wbm: one robot model with a task set, in wbm and in Orocos
+/// KDL, built on first use and checked (the controller converges and moves, KDL agrees on
+/// the kinematics and its solvers converge) before anything is timed.
+
+#include <string>
+#include <vector>
+
+#include <benchmark/benchmark.h>
+
+#include "wbm/urdf_import.hpp"
+
+namespace wbm_bench {
+
+/// A model and the task elements a fixture controls.
+struct FixtureSpec {
+  std::string id;           ///< Benchmark name prefix, e.g. "paper_r12".
+  std::string description;  ///< One line for the notes.
+  /// URDF file; empty: the built-in paper model (KDL then reads wbm::export_urdf of it).
+  std::string urdf;
+  wbm::UrdfImportOptions options;
+  std::string left_hand, right_hand, head;  ///< Frames (also KDL segments).
+  bool left_position = false, right_position = false;  ///< PositionTask, 3 rows each.
+  bool left_axis = false, right_axis = false;          ///< AxisTask (grasp axis), 2 rows each.
+  bool head_axis = false;                              ///< AxisTask (view axis), 2 rows.
+  bool com = false;                                    ///< CenterOfMassTask relative to "heel", 3 rows.
+  std::vector<std::string> joint_task;                 ///< JointTask (posture) dofs, 1 row each.
+
+  int rows() const;
+};
+
+/// paper_r3, paper_r6, paper_r12, g1_r20, romeo_r12 (see bench/README.md).
+std::vector<FixtureSpec> standard_fixtures();
+
+/// A fixture on any URDF: both hands position + grasp axis, and the head's view axis if
+/// `head` is set (12 or 10 rows). `root`/`legs`/... as for wbm::load_urdf.
+FixtureSpec custom_fixture(const std::string& id, const std::string& urdf, const wbm::UrdfImportOptions& options,
+                           const std::string& left_hand, const std::string& right_hand, const std::string& head);
+
+/// Benchmark bodies; each builds (and checks) the fixture on first use.
+/// (a) forward kinematics + the active rows' Jacobians.
+void bm_wbm_kinematics(benchmark::State& state, const FixtureSpec* spec);
+void bm_kdl_kinematics(benchmark::State& state, const FixtureSpec* spec);
+/// (b) one wbm::Controller::update() with moving targets.
+void bm_wbm_cycle(benchmark::State& state, const FixtureSpec* spec);
+/// (c) KDL closed-loop cycle on the same tree: endpoint FK, twists, TreeIkSolverVel_wdls,
+/// integration; and ChainIkSolverVel_pinv_nso on the right arm chain (plain pinv for arms
+/// with fewer than 6 joints, which pinv_nso does not support).
+void bm_kdl_wdls_cycle(benchmark::State& state, const FixtureSpec* spec);
+void bm_kdl_arm_cycle(benchmark::State& state, const FixtureSpec* spec);
+
+/// Stages of one controller cycle, timed alone with the library's public functions on
+/// states recorded from the fixture's moving-target run (where the cycle's time goes).
+enum class Part { kFilters, kForwardKinematics, kCenterOfMass, kValues, kAssemble, kGradient, kSolve, kIntegrate };
+const char* part_name(Part part);
+std::vector<Part> all_parts();
+void bm_wbm_part(benchmark::State& state, const FixtureSpec* spec, Part part);
+
+}  // namespace wbm_bench

@@ -1,0 +1,75 @@
+#!/usr/bin/env bash
+# Runs the wbm benchmarks (bench/README.md).
+#
+#   scripts/bench.sh                      all fixtures (paper model, G1, Romeo) against KDL
+#   scripts/bench.sh --short              the same, short (a few seconds)
+#   scripts/bench.sh --scaling            scaling study; rewrites bench/results/scaling.{csv,svg,md}
+#   scripts/bench.sh ROBOT.urdf --hands LEFT,RIGHT [--head FRAME] [--root LINK] [--legs A,B]
+#                    [--default-limits] [--drop-legs] [--root-height H] [--short]
+#                                         your robot: both hands position + grasp axis and the
+#                                         head's view axis (12 rows; 10 without --head), with
+#                                         KDL's wdls and arm-chain solvers on the same URDF
+#   ... -- ARGS                           extra Google Benchmark flags, e.g.
+#                                         -- --benchmark_repetitions=5 --benchmark_filter=paper_r12
+#
+# The binary is taken from $BUILD_DIR (default: build) and built there if it is missing.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+build_dir="${BUILD_DIR:-build}"
+urdf=""
+mode="fixtures"
+short=0
+own=()
+extra=()
+
+usage() { sed -n '2,17p' "$0" | sed 's/^# \{0,1\}//'; exit "${1:-0}"; }
+
+while [[ $# -gt 0 ]]; do
+  case "$1" in
+    -h|--help) usage 0 ;;
+    --short) short=1 ;;
+    --scaling) mode="scaling" ;;
+    --build-dir) build_dir="$2"; shift ;;
+    --root) own+=("--wbm_root=$2"); shift ;;
+    --legs) own+=("--wbm_legs=$2"); shift ;;
+    --hands) own+=("--wbm_hands=$2"); shift ;;
+    --head) own+=("--wbm_head=$2"); shift ;;
+    --root-height) own+=("--wbm_root_height=$2"); shift ;;
+    --default-limits) own+=("--wbm_default_limits") ;;
+    --drop-legs) own+=("--wbm_drop_legs") ;;
+    --) shift; extra+=("$@"); break ;;
+    -*) echo "bench.sh: unknown option $1" >&2; usage 2 ;;
+    *)
+      if [[ -n "$urdf" ]]; then echo "bench.sh: one URDF only" >&2; exit 2; fi
+      urdf="$1" ;;
+  esac
+  shift
+done
+
+bin="$build_dir/bench/bench_wbm"
+if [[ ! -x "$bin" ]]; then
+  if [[ ! -f "$build_dir/CMakeCache.txt" ]]; then
+    cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release
+  fi
+  cmake --build "$build_dir" --target bench_wbm
+fi
+
+args=()
+[[ $short -eq 1 ]] && args+=(--benchmark_min_time=0.01)
+
+if [[ -n "$urdf" ]]; then
+  [[ -f "$urdf" ]] || { echo "bench.sh: no such file: $urdf" >&2; exit 2; }
+  printf '%s\n' "${own[@]}" | grep -q -- '--wbm_hands=' || { echo "bench.sh: --hands LEFT,RIGHT is required" >&2; exit 2; }
+  exec "$bin" "--wbm_urdf=$urdf" "${own[@]}" --wbm_id=custom --benchmark_filter='^custom/' "${args[@]}" "${extra[@]}"
+fi
+if [[ ${#own[@]} -gt 0 ]]; then echo "bench.sh: --root/--legs/--hands/--head need a URDF file" >&2; exit 2; fi
+
+if [[ "$mode" == "scaling" ]]; then
+  json="$(mktemp --suffix=.json)"
+  trap 'rm -f "$json"' EXIT
+  "$bin" --benchmark_filter='^scaling/' --benchmark_out="$json" --benchmark_out_format=json "${args[@]}" "${extra[@]}"
+  python3 bench/plot_scaling.py "$json" bench/results
+else
+  "$bin" --benchmark_filter='^(paper|g1|romeo)_' "${args[@]}" "${extra[@]}"
+fi
