@@ -33,6 +33,7 @@ WholeBodySolver::WholeBodySolver(const Model& model, int max_rows, const SolverP
   Jt_.setZero(n, m);
   A_.setZero(m, m);
   L_.setZero(m, m);
+  inverse_diagonal_.setZero(m);
   y_.setZero(m);
   v_.setZero(m);
   u_.setZero(m);
@@ -56,7 +57,7 @@ void WholeBodySolver::reset() {
 
 bool WholeBodySolver::factorize(int m) {
   // Cholesky A = L L^T (lower triangle of A) into the row-major L: every inner product
-  // runs over two contiguous rows.
+  // runs over two contiguous rows. The reciprocal diagonal is kept for the solves.
   double max_diagonal = 0.0;
   for (int j = 0; j < m; ++j) max_diagonal = std::max(max_diagonal, A_(j, j));
   const double tiny = 1e-13 * std::max(max_diagonal, 1e-300);
@@ -68,6 +69,7 @@ bool WholeBodySolver::factorize(int m) {
     const double l = std::sqrt(d);
     L_(j, j) = l;
     const double inv = 1.0 / l;
+    inverse_diagonal_[j] = inv;
     for (int i = j + 1; i < m; ++i) {
       const double* __restrict__ Li = &L_(i, 0);
       double sum = A_(i, j);
@@ -78,20 +80,44 @@ bool WholeBodySolver::factorize(int m) {
   return true;
 }
 
-void WholeBodySolver::solve_in_place(int m, Eigen::Ref<Eigen::VectorXd> b) const {
+void WholeBodySolver::solve_in_place(int m, double* __restrict__ x, double* __restrict__ z) const {
   // L y = b by rows (dot products), then L^T x = y by rows of L (axpy): both contiguous.
-  double* __restrict__ x = b.data();
+  // z, if given, is a second right-hand side solved in the same pass over L.
+  const double* __restrict__ inv = inverse_diagonal_.data();
+  if (z == nullptr) {
+    for (int i = 0; i < m; ++i) {
+      const double* __restrict__ Li = &L_(i, 0);
+      double sx = x[i];
+      for (int k = 0; k < i; ++k) sx -= Li[k] * x[k];
+      x[i] = sx * inv[i];
+    }
+    for (int i = m - 1; i >= 0; --i) {
+      const double* __restrict__ Li = &L_(i, 0);
+      const double xi = x[i] * inv[i];
+      x[i] = xi;
+      for (int k = 0; k < i; ++k) x[k] -= Li[k] * xi;
+    }
+    return;
+  }
   for (int i = 0; i < m; ++i) {
     const double* __restrict__ Li = &L_(i, 0);
-    double sum = x[i];
-    for (int k = 0; k < i; ++k) sum -= Li[k] * x[k];
-    x[i] = sum / Li[i];
+    double sx = x[i], sz = z[i];
+    for (int k = 0; k < i; ++k) {
+      sx -= Li[k] * x[k];
+      sz -= Li[k] * z[k];
+    }
+    x[i] = sx * inv[i];
+    z[i] = sz * inv[i];
   }
   for (int i = m - 1; i >= 0; --i) {
     const double* __restrict__ Li = &L_(i, 0);
-    x[i] /= Li[i];
-    const double xi = x[i];
-    for (int k = 0; k < i; ++k) x[k] -= Li[k] * xi;
+    const double xi = x[i] * inv[i], zi = z[i] * inv[i];
+    x[i] = xi;
+    z[i] = zi;
+    for (int k = 0; k < i; ++k) {
+      x[k] -= Li[k] * xi;
+      z[k] -= Li[k] * zi;
+    }
   }
 }
 
@@ -99,9 +125,9 @@ double WholeBodySolver::estimate_min_eigenvalue(int m) {
   if (!factorize(m)) return last_estimate_ = 0.0;
   auto v = v_.head(m);
   // One step per cycle continues the iteration of the previous cycles (the configuration
-  // changes little between cycles); three after a change of the row count, and three near
-  // the threshold, where the estimate sets the damping.
-  int steps = last_estimate_ < 4.0 * parameters_.singular_threshold * parameters_.singular_threshold ? 3 : 1;
+  // changes little between cycles); three after a change of the row count, two near the
+  // threshold, where the estimate sets the damping.
+  int steps = last_estimate_ < 4.0 * parameters_.singular_threshold * parameters_.singular_threshold ? 2 : 1;
   if (m != previous_rows_ || !v.allFinite() || v.norm() == 0.0) {
     for (int i = 0; i < m; ++i) v[i] = 1.0 + 0.37 * i;
     previous_rows_ = m;
@@ -110,7 +136,7 @@ double WholeBodySolver::estimate_min_eigenvalue(int m) {
   v.normalize();
   double growth = 0.0;
   for (int k = 0; k < steps; ++k) {
-    solve_in_place(m, v);
+    solve_in_place(m, v.data(), nullptr);
     growth = v.norm();
     v /= growth;
   }
@@ -185,12 +211,11 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
     }
     auto y = y_.head(m);
     y = xdot;
-    solve_in_place(m, y);
-    out_.qdot_task.noalias() = J.transpose() * y;
-    out_.qdot_task.array() *= w_.array();
     auto u = u_.head(m);
     u.noalias() = J * g_;
-    solve_in_place(m, u);
+    solve_in_place(m, y.data(), u.data());
+    out_.qdot_task.noalias() = J.transpose() * y;
+    out_.qdot_task.array() *= w_.array();
     out_.qdot_null.noalias() = J.transpose() * u;
     out_.qdot_null = -parameters_.nullspace_gain * (g_ - w_.cwiseProduct(out_.qdot_null));
   }

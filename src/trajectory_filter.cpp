@@ -70,18 +70,20 @@ void TrajectoryFilter::move_towards(Eigen::Ref<Eigen::VectorXd> x, const Eigen::
   // Great circle: rotate x towards `to` by the step angle.
   const Vector3 a = x.head<3>();
   const Vector3 b = to.head<3>().normalized();
-  const Vector3 axis = a.cross(b);
-  const double s = axis.norm();
+  const double s = a.cross(b).norm();
   const double angle = std::atan2(s, a.dot(b));
   if (angle <= 0.0) return;
   const double step = std::min(angle * fraction, max_step);
+  // Rotate a by `step` in the plane of a and b (Rodrigues with the axis perpendicular to a):
+  // a' = cos(step) a + sin(step) t, t the unit tangent towards b.
+  Vector3 t;
   if (s < 1e-12) {
-    // Opposite directions: any great circle is shortest; turn about a fixed perpendicular.
-    const Vector3 p = std::abs(a.x()) < 0.9 ? a.cross(Vector3::UnitX()).normalized() : a.cross(Vector3::UnitY()).normalized();
-    x = Eigen::AngleAxisd(step, p) * a;
-    return;
+    // Opposite directions: any great circle is shortest; take a fixed perpendicular.
+    t = (std::abs(a.x()) < 0.9 ? a.cross(Vector3::UnitX()) : a.cross(Vector3::UnitY())).normalized();
+  } else {
+    t = (b - a.dot(b) * a) / s;
   }
-  x = Eigen::AngleAxisd(step, axis / s) * a;
+  x = std::cos(step) * a + std::sin(step) * t;
   x.head<3>().normalize();
 }
 

@@ -71,7 +71,7 @@ struct SolverOutput {
 ///
 /// Factorisation: Cholesky of A = J W^-1 J^T (m x m). The smallest eigenvalue of A
 /// (sigma_min^2) is estimated by inverse iteration warm-started from the previous cycle
-/// (one step per cycle; three when the row count changed or near the threshold). Below the threshold eps the damped form A + lambda^2 E is used with
+/// (one step per cycle; two near the threshold, three when the row count changed). Below the threshold eps the damped form A + lambda^2 E is used with
 /// lambda^2 = lambda_max^2 (1 - sigma_min^2 / eps^2) (singularity-robust inverse, Nakamura
 /// 1986): lambda is continuous in the configuration and J J# = E holds exactly away from
 /// singularities. More rows than free dofs make A singular and take the same path.
@@ -110,7 +110,8 @@ class WholeBodySolver {
   std::uint32_t resolve(const Eigen::Ref<const Eigen::MatrixXd>& J, const Eigen::Ref<const Eigen::VectorXd>& xdot,
                         const Eigen::Ref<const Eigen::VectorXd>& gradient);
   bool factorize(int m);
-  void solve_in_place(int m, Eigen::Ref<Eigen::VectorXd> b) const;
+  /// Solves A x = b in place with the factor; optionally a second right-hand side z.
+  void solve_in_place(int m, double* x, double* z) const;
   double estimate_min_eigenvalue(int m);
 
   const Model& model_;
@@ -122,6 +123,7 @@ class WholeBodySolver {
   Eigen::MatrixXd Jt_;  // J^T (n x m): task rows as contiguous columns
   Eigen::MatrixXd A_;   // J W^-1 J^T (lower triangle used)
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> L_;  // Cholesky factor
+  Eigen::VectorXd inverse_diagonal_;
   Eigen::VectorXd y_, v_, g_, u_;
   Eigen::VectorXd previous_null_;
   int previous_rows_ = -1;
