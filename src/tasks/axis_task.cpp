@@ -5,8 +5,7 @@
 namespace wbm {
 
 AxisTask::AxisTask(const Model& model, std::string name, const std::string& frame, const std::string& reference)
-    : TaskElement(std::move(name), 2, 3, TargetKind::kDirection), frame_(model, frame, reference),
-      J3_(3, model.num_dofs()) {}
+    : TaskElement(std::move(name), 2, 3, TargetKind::kDirection), frame_(model, frame, reference) {}
 
 void AxisTask::value(const Model& model, const Data& data, Eigen::Ref<Eigen::VectorXd> x) {
   x = frame_.pose(model, data).R.col(2);
@@ -26,6 +25,24 @@ Matrix3 AxisTask::sl_frame(const Vector3& a_g, const Vector3& a_t, const Vector3
   return R;
 }
 
+namespace {
+
+/// J += sign * P * (rotational Jacobian of `body`): the chain's joint axes projected on the
+/// two rows of P (world coordinates), without a 3 x n intermediate.
+void add_projected_axes(const Model& model, const Data& data, int body, const Eigen::Matrix<double, 2, 3>& P,
+                        double sign, Eigen::Ref<Eigen::MatrixXd>& J) {
+  const Body* bodies = model.bodies().data();
+  for (int b = body; b >= 0; b = bodies[b].parent) {
+    const Body& B = bodies[b];
+    if (B.dof < 0 || B.joint_type != JointType::kRevolute) continue;
+    const Eigen::Vector2d v = (sign * B.multiplier) * (P * data.a_W[b]);
+    J(0, B.dof) += v.x();
+    J(1, B.dof) += v.y();
+  }
+}
+
+}  // namespace
+
 void AxisTask::evaluate(const Model& model, const Data& data, const Eigen::Ref<const Eigen::VectorXd>& target,
                         const Eigen::Ref<const Eigen::VectorXd>& target_rate, Eigen::Ref<Eigen::MatrixXd> J,
                         Eigen::Ref<Eigen::VectorXd> error, Eigen::Ref<Eigen::VectorXd> rate) {
@@ -33,13 +50,14 @@ void AxisTask::evaluate(const Model& model, const Data& data, const Eigen::Ref<c
   const Vector3 a_t = target.head<3>();
   double phi = 0.0;
   const Matrix3 R_sl = sl_frame(R_RF.col(2), a_t, R_RF.col(1), &phi);
-  frame_.rotational_jacobian(model, data, J3_);
-  // eq. (18): rows x and y of A_sl-I * J_R.
-  for (int c = 0; c < J.cols(); ++c) {
-    const Vector3 w = J3_.col(c);
-    J(0, c) = R_sl.col(0).dot(w);
-    J(1, c) = R_sl.col(1).dot(w);
-  }
+  // eq. (18): rows x and y of A_sl-I * J_R. The relative angular velocity in the reference
+  // frame is R_WR^T (w_F - w_R), so the rows are P (w_F - w_R) with P = R_sl^T R_WR^T (rows
+  // x, y); the joints the frame and the reference share cancel.
+  const Eigen::Matrix<double, 2, 3> P =
+      R_sl.leftCols<2>().transpose() * frame_.reference_rotation(model, data).transpose();
+  J.setZero();
+  add_projected_axes(model, data, model.frames()[frame_.frame()].body, P, 1.0, J);
+  if (frame_.reference() >= 0) add_projected_axes(model, data, model.frames()[frame_.reference()].body, P, -1.0, J);
   error << 0.0, phi;
   // Angular velocity of the moving unit target: w = a_t x d(a_t)/dt.
   const Vector3 unit_target = a_t.normalized();

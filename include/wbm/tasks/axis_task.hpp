@@ -30,7 +30,6 @@ class AxisTask : public TaskElement {
 
  private:
   RelativeFrame frame_;
-  Eigen::MatrixXd J3_;
 };
 
 }  // namespace wbm
