@@ -15,6 +15,17 @@ void TaskElement::set_gain(double gain) {
   gain_ = gain;
 }
 
+void express_point_jacobian_in_frame(const Model& model, const Data& data, int reference, const Vector3& p_WQ,
+                                     Eigen::Ref<Eigen::MatrixXd> J, Eigen::MatrixXd& scratch) {
+  // d/dt R_WR^T (p_WQ - p_WR) = R_WR^T (v_Q - v_R + (p_WQ - p_WR) x w_R).
+  frame_jacobian(model, data, reference, scratch);
+  const Transform X_WR = frame_pose(model, data, reference);
+  const Vector3 d = p_WQ - X_WR.p;
+  const Matrix3 Rt = X_WR.R.transpose();
+  for (int c = 0; c < J.cols(); ++c)
+    J.col(c) = Rt * (J.col(c) - scratch.col(c).head<3>() + d.cross(scratch.col(c).tail<3>()));
+}
+
 RelativeFrame::RelativeFrame(const Model& model, const std::string& frame, const std::string& reference)
     : frame_(model.frame_index(frame)),
       reference_(reference.empty() || reference == "world" ? -1 : model.frame_index(reference)),
@@ -34,14 +45,7 @@ void RelativeFrame::translational_jacobian(const Model& model, const Data& data,
   const Frame& f = model.frames()[frame_];
   const Vector3 p_WF = data.X_WB[f.body] * f.X_BF.p;
   point_jacobian(model, data, f.body, p_WF, J);
-  if (reference_ < 0) return;
-  // d/dt R_WR^T (p_WF - p_WR) = R_WR^T (v_F - v_R + (p_WF - p_WR) x w_R).
-  frame_jacobian(model, data, reference_, J_reference_);
-  const Transform X_WR = frame_pose(model, data, reference_);
-  const Vector3 d = p_WF - X_WR.p;
-  const Matrix3 Rt = X_WR.R.transpose();
-  for (int c = 0; c < J.cols(); ++c)
-    J.col(c) = Rt * (J.col(c) - J_reference_.col(c).head<3>() + d.cross(J_reference_.col(c).tail<3>()));
+  if (reference_ >= 0) express_point_jacobian_in_frame(model, data, reference_, p_WF, J, J_reference_);
 }
 
 void RelativeFrame::rotational_jacobian(const Model& model, const Data& data, Eigen::Ref<Eigen::MatrixXd> J) {

@@ -232,6 +232,41 @@ TEST(AxisTask, JacobianMatchesFiniteDifferencesOfPhiAndAxis) {
   }
 }
 
+TEST(TaskElements, JacobiansMatchFiniteDifferencesOfTheirValues) {
+  // Position and centre of mass relative to the heel, attitude relative to the upper body,
+  // joints: J v against the central difference of value() along a random direction.
+  const Model model = make_paper_model();
+  Data data(model);
+  std::vector<std::unique_ptr<TaskElement>> elements;
+  elements.push_back(std::make_unique<PositionTask>(model, "p", "l_hand_ref", "heel"));
+  elements.push_back(std::make_unique<CenterOfMassTask>(model, "c", "heel"));
+  elements.push_back(std::make_unique<CenterOfMassTask>(model, "cw"));
+  elements.push_back(std::make_unique<AttitudeTask>(model, "a", "r_hand_ref", "upper_body"));
+  elements.push_back(std::make_unique<JointTask>(model, "j", std::vector<std::string>{"l_elbow", "head_pan"}));
+  std::mt19937_64 rng(31);
+  auto value_at = [&](TaskElement& e, const VectorXd& q) {
+    forward_kinematics(model, data, q);
+    center_of_mass(model, data);
+    VectorXd x(e.target_dim());
+    e.value(model, data, x);
+    return x;
+  };
+  for (int c = 0; c < 200; ++c) {
+    const VectorXd q = wbm_test::random_configuration(model, rng);
+    const VectorXd v = wbm_test::random_direction(model.num_dofs(), rng);
+    for (auto& e : elements) {
+      const VectorXd x = value_at(*e, q);
+      MatrixXd J(e->dim(), model.num_dofs());
+      VectorXd err(e->dim()), rate(e->dim());
+      e->evaluate(model, data, x, VectorXd::Zero(e->target_dim()), J, err, rate);
+      const double h = 1e-6;
+      VectorXd fd = (value_at(*e, q + h * v) - value_at(*e, q - h * v)) / (2 * h);
+      ASSERT_LT((fd - J * v).norm(), 1e-6 * (1 + fd.norm())) << e->name() << " case " << c;
+      ASSERT_LT(err.norm(), 1e-12) << e->name();  // zero error at its own value
+    }
+  }
+}
+
 TEST(AxisTask, DegenerateCasesAreDefinedAndContinuous) {
   const Model model = make_paper_model();
   Data data(model);
@@ -421,7 +456,6 @@ TEST(Controller, BadCommandsHaveDefinedResults) {
   c.add_task(std::make_unique<AxisTask>(model, "view", "head_camera"));
   c.reset(model.home());
   Command cmd = c.make_command();
-  const VectorXd q0 = c.q();
   // NaN target of an active element: flagged, the element keeps its previous target.
   cmd.targets[0] = std::nan("");
   ControllerStatus st = c.update(cmd, 0.001);
@@ -468,7 +502,6 @@ TEST(Controller, BadCommandsHaveDefinedResults) {
     EXPECT_GE(c.q()[i], model.dof(i).lower);
     EXPECT_LE(c.q()[i], model.dof(i).upper);
   }
-  (void)q0;
 }
 
 }  // namespace

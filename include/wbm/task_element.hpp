@@ -61,6 +61,12 @@ class TaskElement {
   double gain_ = 10.0;
 };
 
+/// Turns J (3 x nq, in: the world velocity of point p_WQ) into the velocity of Q relative
+/// to frame `reference`, expressed in it: R_WR^T (J - J_v,R + [p_WQ - p_WR]x J_w,R).
+/// `scratch` must be 6 x nq. Never allocates.
+void express_point_jacobian_in_frame(const Model& model, const Data& data, int reference, const Vector3& p_WQ,
+                                     Eigen::Ref<Eigen::MatrixXd> J, Eigen::MatrixXd& scratch);
+
 /// A frame point and the frame its task values are expressed in (world if reference < 0).
 /// Computes the relative position, rotation and Jacobians (eq. 14 and its relative form).
 class RelativeFrame {

@@ -24,18 +24,9 @@ void CenterOfMassTask::evaluate(const Model& model, const Data& data, const Eige
                                 const Eigen::Ref<const Eigen::VectorXd>& target_rate, Eigen::Ref<Eigen::MatrixXd> J,
                                 Eigen::Ref<Eigen::VectorXd> error, Eigen::Ref<Eigen::VectorXd> rate) {
   com_jacobian(model, data, J);
+  if (reference_ >= 0) express_point_jacobian_in_frame(model, data, reference_, data.p_WCm, J, J6_);
   Vector3 x;
-  if (reference_ >= 0) {
-    frame_jacobian(model, data, reference_, J6_);
-    const Transform X_WR = frame_pose(model, data, reference_);
-    const Vector3 d = data.p_WCm - X_WR.p;
-    const Matrix3 Rt = X_WR.R.transpose();
-    for (int c = 0; c < J.cols(); ++c)
-      J.col(c) = Rt * (J.col(c) - J6_.col(c).head<3>() + d.cross(J6_.col(c).tail<3>()));
-    x = Rt * d;
-  } else {
-    x = data.p_WCm;
-  }
+  value(model, data, x);
   error = target - x;
   rate = target_rate;
 }
