@@ -30,7 +30,13 @@ WholeBodySolver::WholeBodySolver(const Model& model, int max_rows, const SolverP
   w_.setZero(n);
   range_sq_.resize(n);
   for (int i = 0; i < n; ++i) range_sq_[i] = model.dof(i).work_range * model.dof(i).work_range;
-  Jt_.setZero(n, m);
+  free_index_.assign(n, 0);
+  Jt_.setZero(n + 1, m);  // one spare row: padding to an even number of free dofs
+  Jwt_.setZero(n + 1, m);
+  gradient_free_.setZero(n + 1);
+  task_free_.setZero(n + 1);
+  null_free_.setZero(n + 1);
+  u_rhs_.setZero(m);
   A_.setZero(m, m);
   L_.setZero(m, m);
   inverse_diagonal_.setZero(m);
@@ -80,53 +86,33 @@ bool WholeBodySolver::factorize(int m) {
   return true;
 }
 
-void WholeBodySolver::solve_in_place(int m, double* __restrict__ x, double* __restrict__ z) const {
+template <int K>
+void WholeBodySolver::solve_in_place(int m, double* const (&x)[K]) const {
   // L y = b by rows (dot products), then L^T x = y by rows of L (axpy): both contiguous.
-  // z, if given, is a second right-hand side solved in the same pass over L.
+  // The K right-hand sides share each pass over L, so their dependency chains overlap.
   const double* __restrict__ inv = inverse_diagonal_.data();
-  if (z == nullptr) {
-    for (int i = 0; i < m; ++i) {
-      const double* __restrict__ Li = &L_(i, 0);
-      double sx = x[i];
-      for (int k = 0; k < i; ++k) sx -= Li[k] * x[k];
-      x[i] = sx * inv[i];
-    }
-    for (int i = m - 1; i >= 0; --i) {
-      const double* __restrict__ Li = &L_(i, 0);
-      const double xi = x[i] * inv[i];
-      x[i] = xi;
-      for (int k = 0; k < i; ++k) x[k] -= Li[k] * xi;
-    }
-    return;
-  }
   for (int i = 0; i < m; ++i) {
     const double* __restrict__ Li = &L_(i, 0);
-    double sx = x[i], sz = z[i];
-    for (int k = 0; k < i; ++k) {
-      sx -= Li[k] * x[k];
-      sz -= Li[k] * z[k];
-    }
-    x[i] = sx * inv[i];
-    z[i] = sz * inv[i];
+    double s[K];
+    for (int r = 0; r < K; ++r) s[r] = x[r][i];
+    for (int k = 0; k < i; ++k)
+      for (int r = 0; r < K; ++r) s[r] -= Li[k] * x[r][k];
+    for (int r = 0; r < K; ++r) x[r][i] = s[r] * inv[i];
   }
   for (int i = m - 1; i >= 0; --i) {
     const double* __restrict__ Li = &L_(i, 0);
-    const double xi = x[i] * inv[i], zi = z[i] * inv[i];
-    x[i] = xi;
-    z[i] = zi;
-    for (int k = 0; k < i; ++k) {
-      x[k] -= Li[k] * xi;
-      z[k] -= Li[k] * zi;
-    }
+    double xi[K];
+    for (int r = 0; r < K; ++r) xi[r] = x[r][i] *= inv[i];
+    for (int k = 0; k < i; ++k)
+      for (int r = 0; r < K; ++r) x[r][k] -= Li[k] * xi[r];
   }
 }
 
-double WholeBodySolver::estimate_min_eigenvalue(int m) {
-  if (!factorize(m)) return last_estimate_ = 0.0;
-  auto v = v_.head(m);
+int WholeBodySolver::start_inverse_iteration(int m) {
   // One step per cycle continues the iteration of the previous cycles (the configuration
   // changes little between cycles); three after a change of the row count, two near the
   // threshold, where the estimate sets the damping.
+  auto v = v_.head(m);
   int steps = last_estimate_ < 4.0 * parameters_.singular_threshold * parameters_.singular_threshold ? 2 : 1;
   if (m != previous_rows_ || !v.allFinite() || v.norm() == 0.0) {
     for (int i = 0; i < m; ++i) v[i] = 1.0 + 0.37 * i;
@@ -134,16 +120,60 @@ double WholeBodySolver::estimate_min_eigenvalue(int m) {
     steps = 3;
   }
   v.normalize();
-  double growth = 0.0;
-  for (int k = 0; k < steps; ++k) {
-    solve_in_place(m, v.data(), nullptr);
-    growth = v.norm();
-    v /= growth;
-  }
-  // |A^-1 v| <= 1 / lambda_min, with equality for the converged eigenvector.
-  last_estimate_ = 1.0 / growth;
-  return last_estimate_;
+  return steps;
 }
+
+double WholeBodySolver::normalize_iterate(int m) {
+  auto v = v_.head(m);
+  const double growth = v.norm();
+  v /= growth;
+  return growth;
+}
+
+namespace {
+
+#if defined(__GNUC__)
+// Two doubles per operation (SSE2 on x86-64, NEON on AArch64) through the GCC/Clang vector
+// extension: the compiler may not reorder floating-point sums itself, so the two lanes of
+// the reductions below are spelled out.
+using Lanes = double __attribute__((vector_size(16)));
+inline Lanes load_lanes(const double* p) {
+  Lanes v;
+  __builtin_memcpy(&v, p, sizeof v);
+  return v;
+}
+#endif
+
+/// Four inner products of two pairs of columns over n entries (n even): s = {b0.a0, b0.a1,
+/// b1.a0, b1.a1}.
+inline void four_dot_products(const double* a0, const double* a1, const double* b0, const double* b1, int n,
+                              double s[4]) {
+#if defined(__GNUC__)
+  Lanes s00 = {0.0, 0.0}, s01 = s00, s10 = s00, s11 = s00;
+  for (int k = 0; k < n; k += 2) {
+    const Lanes x0 = load_lanes(a0 + k), x1 = load_lanes(a1 + k);
+    const Lanes y0 = load_lanes(b0 + k), y1 = load_lanes(b1 + k);
+    s00 += y0 * x0;
+    s01 += y0 * x1;
+    s10 += y1 * x0;
+    s11 += y1 * x1;
+  }
+  s[0] = s00[0] + s00[1];
+  s[1] = s01[0] + s01[1];
+  s[2] = s10[0] + s10[1];
+  s[3] = s11[0] + s11[1];
+#else
+  s[0] = s[1] = s[2] = s[3] = 0.0;
+  for (int k = 0; k < n; ++k) {
+    s[0] += b0[k] * a0[k];
+    s[1] += b0[k] * a1[k];
+    s[2] += b1[k] * a0[k];
+    s[3] += b1[k] * a1[k];
+  }
+#endif
+}
+
+}  // namespace
 
 std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& J,
                                        const Eigen::Ref<const Eigen::VectorXd>& xdot,
@@ -151,75 +181,124 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
   std::uint32_t flags = kSolverOk;
   const int n = model_.num_dofs();
   const int m = static_cast<int>(J.rows());
-  int free_count = 0;
+  // The free dofs, compacted; frozen dofs (W^-1_ii = 0) take no part in the products.
+  int nf = 0;
   for (int i = 0; i < n; ++i) {
     w_[i] = free_[i] ? range_sq_[i] : 0.0;
-    free_count += free_[i] ? 1 : 0;
+    if (free_[i]) free_index_[nf++] = i;
   }
-  if (free_count == 0) return kAllDofsFrozen;
-  if (m > free_count) flags |= kOverdetermined;
+  if (nf == 0) return kAllDofsFrozen;
+  if (m > nf) flags |= kOverdetermined;
   out_.damping = 0.0;
   g_ = w_.cwiseProduct(gradient);
   if (m == 0) {
     flags |= kNoActiveRows;
     out_.qdot_null = -parameters_.nullspace_gain * g_;
     out_.min_singular_value = std::numeric_limits<double>::infinity();
-  } else {
-    // A = J W^-1 J^T from the task rows stored contiguously (Jt = J^T, n x m), in 2 x 2
-    // blocks of the lower triangle so that each pass over the dofs fills four entries.
-    auto Jt = Jt_.leftCols(m);
-    Jt = J.transpose();
-    const Eigen::Index ld = Jt_.outerStride();
-    const double* __restrict__ w = w_.data();
-    for (int j = 0; j < m; j += 2) {
-      const int j1 = std::min(j + 1, m - 1);
-      const double* __restrict__ a0 = Jt_.data() + j * ld;
-      const double* __restrict__ a1 = Jt_.data() + j1 * ld;
-      for (int i = j; i < m; i += 2) {
-        const int i1 = std::min(i + 1, m - 1);
-        const double* __restrict__ b0 = Jt_.data() + i * ld;
-        const double* __restrict__ b1 = Jt_.data() + i1 * ld;
-        double s00 = 0.0, s01 = 0.0, s10 = 0.0, s11 = 0.0;
-        for (int k = 0; k < n; ++k) {
-          const double wb0 = w[k] * b0[k], wb1 = w[k] * b1[k];
-          s00 += wb0 * a0[k];
-          s01 += wb0 * a1[k];
-          s10 += wb1 * a0[k];
-          s11 += wb1 * a1[k];
-        }
-        A_(i, j) = s00;
-        A_(i, j1) = s01;
-        A_(i1, j) = s10;
-        A_(i1, j1) = s11;
-      }
+    return flags;
+  }
+  // Task rows as contiguous columns over the free dofs: Jt = J^T and Jwt = W^-1 J^T
+  // (nf x m, padded with a zero to an even length for the two-lane products).
+  const int np = (nf + 1) & ~1;
+  const Eigen::Index ld = Jt_.outerStride();
+  double* __restrict__ Jt = Jt_.data();
+  double* __restrict__ Jwt = Jwt_.data();
+  for (int c = 0; c < nf; ++c) {
+    const int k = free_index_[c];
+    const double* column = J.data() + k * J.outerStride();
+    const double w = w_[k];
+    for (int i = 0; i < m; ++i) {
+      Jt[i * ld + c] = column[i];
+      Jwt[i * ld + c] = w * column[i];
     }
-    auto A = A_.topLeftCorner(m, m);
-    const double lambda_min = estimate_min_eigenvalue(m);
-    out_.min_singular_value = std::sqrt(std::max(lambda_min, 0.0));
-    const double eps2 = parameters_.singular_threshold * parameters_.singular_threshold;
-    if (lambda_min < eps2) {
-      flags |= kDamped;
-      const double max2 = parameters_.max_damping * parameters_.max_damping;
-      double damping2 = max2 * (1.0 - std::max(lambda_min, 0.0) / eps2);
-      A.diagonal().array() += damping2;
-      if (!factorize(m)) {
-        A.diagonal().array() += max2 - damping2;
-        damping2 = max2;
-        factorize(m);
-      }
-      out_.damping = std::sqrt(damping2);
+    gradient_free_[c] = gradient[k];
+  }
+  if (np != nf) {
+    for (int i = 0; i < m; ++i) Jt[i * ld + nf] = Jwt[i * ld + nf] = 0.0;
+    gradient_free_[nf] = 0.0;
+  }
+  // A = J W^-1 J^T (lower triangle) in 2 x 2 blocks: one pass over the dofs, four entries.
+  for (int j = 0; j < m; j += 2) {
+    const int j1 = std::min(j + 1, m - 1);
+    for (int i = j; i < m; i += 2) {
+      const int i1 = std::min(i + 1, m - 1);
+      double s[4];
+      four_dot_products(Jt + j * ld, Jt + j1 * ld, Jwt + i * ld, Jwt + i1 * ld, np, s);
+      A_(i, j) = s[0];
+      A_(i, j1) = s[1];
+      A_(i1, j) = s[2];
+      A_(i1, j1) = s[3];
     }
-    auto y = y_.head(m);
-    y = xdot;
-    auto u = u_.head(m);
-    u.noalias() = J * g_;
-    solve_in_place(m, y.data(), u.data());
-    out_.qdot_task.noalias() = J.transpose() * y;
-    out_.qdot_task.array() *= w_.array();
-    out_.qdot_null.noalias() = J.transpose() * u;
-    out_.qdot_null = -parameters_.nullspace_gain * (g_ - w_.cwiseProduct(out_.qdot_null));
+  }
+  // u = J W^-1 dH/dq = J g, two rows at a time.
+  for (int i = 0; i < m; i += 2) {
+    const int i1 = std::min(i + 1, m - 1);
+    double s[4];
+    four_dot_products(gradient_free_.data(), gradient_free_.data(), Jwt + i * ld, Jwt + i1 * ld, np, s);
+    u_rhs_[i] = s[0];
+    u_rhs_[i1] = s[2];
   }
 
+  // The smallest eigenvalue of A (sigma_min^2) by inverse iteration; its last step shares
+  // the pass over the factor with the two solves, which are repeated only when damping.
+  auto y = y_.head(m);
+  auto u = u_.head(m);
+  double lambda_min = 0.0;
+  if (factorize(m)) {
+    const int steps = start_inverse_iteration(m);
+    for (int k = 1; k < steps; ++k) {
+      double* const rhs[1] = {v_.data()};
+      solve_in_place<1>(m, rhs);
+      normalize_iterate(m);
+    }
+    y = xdot;
+    u = u_rhs_.head(m);
+    double* const rhs[3] = {y_.data(), u_.data(), v_.data()};
+    solve_in_place<3>(m, rhs);
+    // |A^-1 v| <= 1 / lambda_min, with equality for the converged eigenvector.
+    lambda_min = 1.0 / normalize_iterate(m);
+  }
+  last_estimate_ = lambda_min;
+  out_.min_singular_value = std::sqrt(std::max(lambda_min, 0.0));
+  const double eps2 = parameters_.singular_threshold * parameters_.singular_threshold;
+  if (lambda_min < eps2) {
+    flags |= kDamped;
+    auto A = A_.topLeftCorner(m, m);
+    const double max2 = parameters_.max_damping * parameters_.max_damping;
+    double damping2 = max2 * (1.0 - std::max(lambda_min, 0.0) / eps2);
+    A.diagonal().array() += damping2;
+    if (!factorize(m)) {
+      A.diagonal().array() += max2 - damping2;
+      damping2 = max2;
+      factorize(m);
+    }
+    out_.damping = std::sqrt(damping2);
+    y = xdot;
+    u = u_rhs_.head(m);
+    double* const rhs[2] = {y_.data(), u_.data()};
+    solve_in_place<2>(m, rhs);
+  }
+  // W^-1 J^T y and W^-1 J^T u over the free dofs (axpy over the task rows).
+  double* __restrict__ task = task_free_.data();
+  double* __restrict__ null = null_free_.data();
+  std::fill(task, task + np, 0.0);
+  std::fill(null, null + np, 0.0);
+  for (int i = 0; i < m; ++i) {
+    const double* __restrict__ column = Jwt + i * ld;
+    const double yi = y_[i], ui = u_[i];
+    for (int c = 0; c < np; ++c) {
+      task[c] += column[c] * yi;
+      null[c] += column[c] * ui;
+    }
+  }
+  out_.qdot_task.setZero();
+  out_.qdot_null = g_;
+  for (int c = 0; c < nf; ++c) {
+    const int k = free_index_[c];
+    out_.qdot_task[k] = task[c];
+    out_.qdot_null[k] -= null[c];
+  }
+  out_.qdot_null *= -parameters_.nullspace_gain;
   return flags;
 }
 

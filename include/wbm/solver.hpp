@@ -5,6 +5,7 @@
 /// clamping (IV.E).
 
 #include <cstdint>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -110,9 +111,13 @@ class WholeBodySolver {
   std::uint32_t resolve(const Eigen::Ref<const Eigen::MatrixXd>& J, const Eigen::Ref<const Eigen::VectorXd>& xdot,
                         const Eigen::Ref<const Eigen::VectorXd>& gradient);
   bool factorize(int m);
-  /// Solves A x = b in place with the factor; optionally a second right-hand side z.
-  void solve_in_place(int m, double* x, double* z) const;
-  double estimate_min_eigenvalue(int m);
+  /// Solves A x = b in place with the factor for K right-hand sides at once.
+  template <int K>
+  void solve_in_place(int m, double* const (&x)[K]) const;
+  /// Prepares the inverse-iteration vector v for this cycle; returns the number of steps.
+  int start_inverse_iteration(int m);
+  /// Normalises v after a solve and returns the norm it had.
+  double normalize_iterate(int m);
 
   const Model& model_;
   SolverParameters parameters_;
@@ -120,11 +125,15 @@ class WholeBodySolver {
   Mask free_;                 // b_C, plus dofs frozen at their limits
   Eigen::VectorXd w_;         // W^-1 diagonal with frozen dofs zeroed
   Eigen::VectorXd range_sq_;  // r_i^2
-  Eigen::MatrixXd Jt_;  // J^T (n x m): task rows as contiguous columns
+  std::vector<int> free_index_;  // the free dofs, in order
+  // Over the free dofs, padded with a zero to an even length: J^T and W^-1 J^T ((n+1) x m),
+  // dH/dq, W^-1 J^T y and W^-1 J^T u.
+  Eigen::MatrixXd Jt_, Jwt_;
+  Eigen::VectorXd gradient_free_, task_free_, null_free_;
   Eigen::MatrixXd A_;   // J W^-1 J^T (lower triangle used)
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> L_;  // Cholesky factor
   Eigen::VectorXd inverse_diagonal_;
-  Eigen::VectorXd y_, v_, g_, u_;
+  Eigen::VectorXd y_, v_, g_, u_, u_rhs_;
   Eigen::VectorXd previous_null_;
   int previous_rows_ = -1;
   double last_estimate_ = 0.0;
