@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "zero_block.hpp"
+
 namespace wbm {
 namespace {
 
@@ -75,10 +77,8 @@ struct ColumnWriter {
 };
 
 ColumnWriter clear(Eigen::Ref<Eigen::MatrixXd>& J) {
-  const Eigen::Index stride = J.outerStride();
-  for (Eigen::Index c = 0; c < J.cols(); ++c)
-    for (Eigen::Index r = 0; r < J.rows(); ++r) J.data()[c * stride + r] = 0.0;
-  return {J.data(), stride};
+  internal::zero_block(J);
+  return {J.data(), J.outerStride()};
 }
 
 void add(double* col, double k, const Vector3& v) {
@@ -151,7 +151,7 @@ Vector3 center_of_mass_position(const Model& model, const Data& data) {
 void com_jacobian(const Model& model, const Data& data, Eigen::Ref<Eigen::MatrixXd> J) {
   // Column of joint i: a_i x (sum over the subtree of m_k (c_k - p_i)) / M for revolute,
   // a_i * subtree mass / M for prismatic joints.
-  J.setZero();
+  internal::zero_block(J);
   const double inv_mass = 1.0 / model.total_mass();
   const std::vector<Body>& bodies = model.bodies();
   const int nb = static_cast<int>(bodies.size());

@@ -61,26 +61,94 @@ void WholeBodySolver::reset() {
   last_estimate_ = 0.0;
 }
 
+namespace {
+
+#if defined(__GNUC__)
+// Two doubles per operation (SSE2 on x86-64, NEON on AArch64) through the GCC/Clang vector
+// extension: the compiler may not reorder floating-point sums itself, so the two lanes of
+// the reductions below are spelled out (other compilers: the plain loops).
+using Lanes = double __attribute__((vector_size(16)));
+inline Lanes load_lanes(const double* p) {
+  Lanes v;
+  __builtin_memcpy(&v, p, sizeof v);
+  return v;
+}
+#endif
+
+/// Four inner products of two pairs of vectors of n entries: s = {b0.a0, b0.a1, b1.a0, b1.a1}.
+inline void four_dot_products(const double* a0, const double* a1, const double* b0, const double* b1, int n,
+                              double s[4]) {
+  int k = 0;
+#if defined(__GNUC__)
+  Lanes s00 = {0.0, 0.0}, s01 = s00, s10 = s00, s11 = s00;
+  for (; k + 1 < n; k += 2) {
+    const Lanes x0 = load_lanes(a0 + k), x1 = load_lanes(a1 + k);
+    const Lanes y0 = load_lanes(b0 + k), y1 = load_lanes(b1 + k);
+    s00 += y0 * x0;
+    s01 += y0 * x1;
+    s10 += y1 * x0;
+    s11 += y1 * x1;
+  }
+  s[0] = s00[0] + s00[1];
+  s[1] = s01[0] + s01[1];
+  s[2] = s10[0] + s10[1];
+  s[3] = s11[0] + s11[1];
+#else
+  s[0] = s[1] = s[2] = s[3] = 0.0;
+#endif
+  for (; k < n; ++k) {
+    s[0] += b0[k] * a0[k];
+    s[1] += b0[k] * a1[k];
+    s[2] += b1[k] * a0[k];
+    s[3] += b1[k] * a1[k];
+  }
+}
+
+/// Two inner products of n entries: s = {b0.a, b1.a}.
+inline void two_dot_products(const double* a, const double* b0, const double* b1, int n, double s[2]) {
+  int k = 0;
+#if defined(__GNUC__)
+  Lanes s0 = {0.0, 0.0}, s1 = s0;
+  for (; k + 1 < n; k += 2) {
+    const Lanes x = load_lanes(a + k);
+    s0 += load_lanes(b0 + k) * x;
+    s1 += load_lanes(b1 + k) * x;
+  }
+  s[0] = s0[0] + s0[1];
+  s[1] = s1[0] + s1[1];
+#else
+  s[0] = s[1] = 0.0;
+#endif
+  for (; k < n; ++k) {
+    s[0] += b0[k] * a[k];
+    s[1] += b1[k] * a[k];
+  }
+}
+
+}  // namespace
+
 bool WholeBodySolver::factorize(int m) {
   // Cholesky A = L L^T (lower triangle of A) into the row-major L: every inner product
-  // runs over two contiguous rows. The reciprocal diagonal is kept for the solves.
+  // runs over two contiguous rows, two rows i at a time. The reciprocal diagonal is kept
+  // for the solves.
   double max_diagonal = 0.0;
   for (int j = 0; j < m; ++j) max_diagonal = std::max(max_diagonal, A_(j, j));
   const double tiny = 1e-13 * std::max(max_diagonal, 1e-300);
   for (int j = 0; j < m; ++j) {
-    const double* __restrict__ Lj = &L_(j, 0);
-    double d = A_(j, j);
-    for (int k = 0; k < j; ++k) d -= Lj[k] * Lj[k];
+    const double* Lj = &L_(j, 0);
+    double s[2];
+    two_dot_products(Lj, Lj, Lj, j, s);
+    const double d = A_(j, j) - s[0];
     if (!(d > tiny)) return false;
     const double l = std::sqrt(d);
     L_(j, j) = l;
     const double inv = 1.0 / l;
     inverse_diagonal_[j] = inv;
-    for (int i = j + 1; i < m; ++i) {
-      const double* __restrict__ Li = &L_(i, 0);
-      double sum = A_(i, j);
-      for (int k = 0; k < j; ++k) sum -= Li[k] * Lj[k];
-      L_(i, j) = sum * inv;
+    for (int i = j + 1; i < m; i += 2) {
+      const int i1 = std::min(i + 1, m - 1);
+      two_dot_products(Lj, &L_(i, 0), &L_(i1, 0), j, s);
+      L_(i, j) = (A_(i, j) - s[0]) * inv;
+      L_(i1, j) = (A_(i1, j) - s[1]) * inv;
     }
   }
   return true;
@@ -129,51 +197,6 @@ double WholeBodySolver::normalize_iterate(int m) {
   v /= growth;
   return growth;
 }
-
-namespace {
-
-#if defined(__GNUC__)
-// Two doubles per operation (SSE2 on x86-64, NEON on AArch64) through the GCC/Clang vector
-// extension: the compiler may not reorder floating-point sums itself, so the two lanes of
-// the reductions below are spelled out.
-using Lanes = double __attribute__((vector_size(16)));
-inline Lanes load_lanes(const double* p) {
-  Lanes v;
-  __builtin_memcpy(&v, p, sizeof v);
-  return v;
-}
-#endif
-
-/// Four inner products of two pairs of columns over n entries (n even): s = {b0.a0, b0.a1,
-/// b1.a0, b1.a1}.
-inline void four_dot_products(const double* a0, const double* a1, const double* b0, const double* b1, int n,
-                              double s[4]) {
-#if defined(__GNUC__)
-  Lanes s00 = {0.0, 0.0}, s01 = s00, s10 = s00, s11 = s00;
-  for (int k = 0; k < n; k += 2) {
-    const Lanes x0 = load_lanes(a0 + k), x1 = load_lanes(a1 + k);
-    const Lanes y0 = load_lanes(b0 + k), y1 = load_lanes(b1 + k);
-    s00 += y0 * x0;
-    s01 += y0 * x1;
-    s10 += y1 * x0;
-    s11 += y1 * x1;
-  }
-  s[0] = s00[0] + s00[1];
-  s[1] = s01[0] + s01[1];
-  s[2] = s10[0] + s10[1];
-  s[3] = s11[0] + s11[1];
-#else
-  s[0] = s[1] = s[2] = s[3] = 0.0;
-  for (int k = 0; k < n; ++k) {
-    s[0] += b0[k] * a0[k];
-    s[1] += b0[k] * a1[k];
-    s[2] += b1[k] * a0[k];
-    s[3] += b1[k] * a1[k];
-  }
-#endif
-}
-
-}  // namespace
 
 std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& J,
                                        const Eigen::Ref<const Eigen::VectorXd>& xdot,
@@ -233,10 +256,10 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
   // u = J W^-1 dH/dq = J g, two rows at a time.
   for (int i = 0; i < m; i += 2) {
     const int i1 = std::min(i + 1, m - 1);
-    double s[4];
-    four_dot_products(gradient_free_.data(), gradient_free_.data(), Jwt + i * ld, Jwt + i1 * ld, np, s);
+    double s[2];
+    two_dot_products(gradient_free_.data(), Jwt + i * ld, Jwt + i1 * ld, np, s);
     u_rhs_[i] = s[0];
-    u_rhs_[i1] = s[2];
+    u_rhs_[i1] = s[1];
   }
 
   // The smallest eigenvalue of A (sigma_min^2) by inverse iteration; its last step shares

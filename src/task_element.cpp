@@ -15,21 +15,47 @@ void TaskElement::set_gain(double gain) {
   gain_ = gain;
 }
 
+namespace {
+
+/// Every column c of J (3 x n, world coordinates) becomes R_WR^T c.
+void express_columns_in(const Matrix3& R_WR, Eigen::Ref<Eigen::MatrixXd>& J) {
+  const Eigen::Index stride = J.outerStride();
+  for (Eigen::Index c = 0; c < J.cols(); ++c) {
+    double* col = J.data() + c * stride;
+    const Vector3 v(col[0], col[1], col[2]);
+    col[0] = R_WR.col(0).dot(v);
+    col[1] = R_WR.col(1).dot(v);
+    col[2] = R_WR.col(2).dot(v);
+  }
+}
+
+}  // namespace
+
 void express_point_jacobian_in_frame(const Model& model, const Data& data, int reference, const Vector3& p_WQ,
-                                     Eigen::Ref<Eigen::MatrixXd> J, Eigen::MatrixXd& scratch) {
-  // d/dt R_WR^T (p_WQ - p_WR) = R_WR^T (v_Q - v_R + (p_WQ - p_WR) x w_R).
-  frame_jacobian(model, data, reference, scratch);
-  const Transform X_WR = frame_pose(model, data, reference);
-  const Vector3 d = p_WQ - X_WR.p;
-  const Matrix3 Rt = X_WR.R.transpose();
-  for (int c = 0; c < J.cols(); ++c)
-    J.col(c) = Rt * (J.col(c) - scratch.col(c).head<3>() + d.cross(scratch.col(c).tail<3>()));
+                                     Eigen::Ref<Eigen::MatrixXd> J) {
+  // d/dt R_WR^T (p_WQ - p_WR) = R_WR^T (v_Q - v_R + (p_WQ - p_WR) x w_R). Only the dofs on
+  // the reference's chain have non-zero v_R, w_R: their columns change, walking the chain;
+  // then every column is rotated. Revolute dof (axis a through p_WB): v_R = a x (p_WR -
+  // p_WB), w_R = a, so the change -v_R + (p_WQ - p_WR) x a is (p_WQ - p_WB) x a.
+  // Prismatic: v_R = a, w_R = 0.
+  const Body* bodies = model.bodies().data();
+  const Eigen::Index stride = J.outerStride();
+  for (int b = model.frames()[reference].body; b >= 0; b = bodies[b].parent) {
+    const Body& B = bodies[b];
+    if (B.dof < 0) continue;
+    const Vector3 a = B.multiplier * data.a_W[b];
+    const Vector3 change = B.joint_type == JointType::kRevolute ? Vector3((p_WQ - data.X_WB[b].p).cross(a)) : Vector3(-a);
+    double* col = J.data() + B.dof * stride;
+    col[0] += change.x();
+    col[1] += change.y();
+    col[2] += change.z();
+  }
+  express_columns_in(frame_pose(model, data, reference).R, J);
 }
 
 RelativeFrame::RelativeFrame(const Model& model, const std::string& frame, const std::string& reference)
     : frame_(model.frame_index(frame)),
-      reference_(reference.empty() || reference == "world" ? -1 : model.frame_index(reference)),
-      J_reference_(6, model.num_dofs()) {}
+      reference_(reference.empty() || reference == "world" ? -1 : model.frame_index(reference)) {}
 
 Matrix3 RelativeFrame::reference_rotation(const Model& model, const Data& data) const {
   return reference_ < 0 ? Matrix3::Identity() : frame_pose(model, data, reference_).R;
@@ -45,16 +71,26 @@ void RelativeFrame::translational_jacobian(const Model& model, const Data& data,
   const Frame& f = model.frames()[frame_];
   const Vector3 p_WF = data.X_WB[f.body] * f.X_BF.p;
   point_jacobian(model, data, f.body, p_WF, J);
-  if (reference_ >= 0) express_point_jacobian_in_frame(model, data, reference_, p_WF, J, J_reference_);
+  if (reference_ >= 0) express_point_jacobian_in_frame(model, data, reference_, p_WF, J);
 }
 
 void RelativeFrame::rotational_jacobian(const Model& model, const Data& data, Eigen::Ref<Eigen::MatrixXd> J) {
   wbm::rotational_jacobian(model, data, model.frames()[frame_].body, J);
   if (reference_ < 0) return;
-  // The relative angular velocity R_WR^T (w_F - w_R).
-  wbm::rotational_jacobian(model, data, model.frames()[reference_].body, J_reference_.topRows<3>());
-  const Matrix3 Rt = frame_pose(model, data, reference_).R.transpose();
-  for (int c = 0; c < J.cols(); ++c) J.col(c) = Rt * (J.col(c) - J_reference_.col(c).head<3>());
+  // The relative angular velocity R_WR^T (w_F - w_R): subtract the reference chain's
+  // revolute axes, then rotate every column.
+  const Body* bodies = model.bodies().data();
+  const Eigen::Index stride = J.outerStride();
+  for (int b = model.frames()[reference_].body; b >= 0; b = bodies[b].parent) {
+    const Body& B = bodies[b];
+    if (B.dof < 0 || B.joint_type != JointType::kRevolute) continue;
+    double* col = J.data() + B.dof * stride;
+    const Vector3 a = B.multiplier * data.a_W[b];
+    col[0] -= a.x();
+    col[1] -= a.y();
+    col[2] -= a.z();
+  }
+  express_columns_in(frame_pose(model, data, reference_).R, J);
 }
 
 }  // namespace wbm

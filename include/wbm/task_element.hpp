@@ -63,9 +63,9 @@ class TaskElement {
 
 /// Turns J (3 x nq, in: the world velocity of point p_WQ) into the velocity of Q relative
 /// to frame `reference`, expressed in it: R_WR^T (J - J_v,R + [p_WQ - p_WR]x J_w,R).
-/// `scratch` must be 6 x nq. Never allocates.
+/// Never allocates.
 void express_point_jacobian_in_frame(const Model& model, const Data& data, int reference, const Vector3& p_WQ,
-                                     Eigen::Ref<Eigen::MatrixXd> J, Eigen::MatrixXd& scratch);
+                                     Eigen::Ref<Eigen::MatrixXd> J);
 
 /// A frame point and the frame its task values are expressed in (world if reference < 0).
 /// Computes the relative position, rotation and Jacobians (eq. 14 and its relative form).
@@ -88,7 +88,6 @@ class RelativeFrame {
  private:
   int frame_ = -1;
   int reference_ = -1;
-  Eigen::MatrixXd J_reference_;  // 6 x nq scratch
 };
 
 }  // namespace wbm

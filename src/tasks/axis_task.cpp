@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "../zero_block.hpp"
+
 namespace wbm {
 
 AxisTask::AxisTask(const Model& model, std::string name, const std::string& frame, const std::string& reference)
@@ -55,7 +57,7 @@ void AxisTask::evaluate(const Model& model, const Data& data, const Eigen::Ref<c
   // x, y); the joints the frame and the reference share cancel.
   const Eigen::Matrix<double, 2, 3> P =
       R_sl.leftCols<2>().transpose() * frame_.reference_rotation(model, data).transpose();
-  J.setZero();
+  internal::zero_block(J);
   add_projected_axes(model, data, model.frames()[frame_.frame()].body, P, 1.0, J);
   if (frame_.reference() >= 0) add_projected_axes(model, data, model.frames()[frame_.reference()].body, P, -1.0, J);
   error << 0.0, phi;

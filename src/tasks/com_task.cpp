@@ -6,8 +6,7 @@ namespace wbm {
 
 CenterOfMassTask::CenterOfMassTask(const Model& model, std::string name, const std::string& reference)
     : TaskElement(std::move(name), 3, 3, TargetKind::kVector),
-      reference_(reference.empty() || reference == "world" ? -1 : model.frame_index(reference)),
-      J6_(6, model.num_dofs()) {
+      reference_(reference.empty() || reference == "world" ? -1 : model.frame_index(reference)) {
   if (!(model.total_mass() > 0.0)) throw ModelError("centre-of-mass task '" + this->name() + "': the model has no mass");
 }
 
@@ -24,7 +23,7 @@ void CenterOfMassTask::evaluate(const Model& model, const Data& data, const Eige
                                 const Eigen::Ref<const Eigen::VectorXd>& target_rate, Eigen::Ref<Eigen::MatrixXd> J,
                                 Eigen::Ref<Eigen::VectorXd> error, Eigen::Ref<Eigen::VectorXd> rate) {
   com_jacobian(model, data, J);
-  if (reference_ >= 0) express_point_jacobian_in_frame(model, data, reference_, data.p_WCm, J, J6_);
+  if (reference_ >= 0) express_point_jacobian_in_frame(model, data, reference_, data.p_WCm, J);
   Vector3 x;
   value(model, data, x);
   error = target - x;

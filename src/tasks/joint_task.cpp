@@ -2,6 +2,8 @@
 
 #include "wbm/errors.hpp"
 
+#include "../zero_block.hpp"
+
 namespace wbm {
 
 JointTask::JointTask(const Model& model, std::string name, const std::vector<std::string>& dofs)
@@ -17,7 +19,7 @@ void JointTask::value(const Model&, const Data& data, Eigen::Ref<Eigen::VectorXd
 void JointTask::evaluate(const Model&, const Data& data, const Eigen::Ref<const Eigen::VectorXd>& target,
                          const Eigen::Ref<const Eigen::VectorXd>& target_rate, Eigen::Ref<Eigen::MatrixXd> J,
                          Eigen::Ref<Eigen::VectorXd> error, Eigen::Ref<Eigen::VectorXd> rate) {
-  J.setZero();
+  internal::zero_block(J);
   for (size_t i = 0; i < dofs_.size(); ++i) {
     J(i, dofs_[i]) = 1.0;
     error[i] = target[i] - data.q[dofs_[i]];

@@ -17,7 +17,6 @@ class CenterOfMassTask : public TaskElement {
 
  private:
   int reference_ = -1;
-  Eigen::MatrixXd J6_;
 };
 
 }  // namespace wbm
