@@ -4,6 +4,8 @@
 
 #include "wbm/errors.hpp"
 
+#include "small_angle.hpp"
+
 namespace wbm {
 
 TrajectoryFilter::TrajectoryFilter(TargetKind kind, int dim, const FilterParameters& parameters)
@@ -67,11 +69,13 @@ void TrajectoryFilter::move_towards(Eigen::Ref<Eigen::VectorXd> x, const Eigen::
     x += (to - x) * (step / distance);
     return;
   }
-  // Great circle: rotate x towards `to` by the step angle.
+  // Great circle: rotate x towards `to` by the step angle; both are unit vectors.
   const Vector3 a = x.head<3>();
-  const Vector3 b = to.head<3>().normalized();
-  const double s = a.cross(b).norm();
-  const double angle = std::atan2(s, a.dot(b));
+  const Vector3 b = to.head<3>();
+  const double c = a.dot(b);
+  const Vector3 perpendicular = b - c * a;  // |b - (a.b) a| = |a x b| = sin(angle)
+  const double s = perpendicular.norm();
+  const double angle = internal::small_angle_atan2(s, c);
   if (angle <= 0.0) return;
   const double step = std::min(angle * fraction, max_step);
   // Rotate a by `step` in the plane of a and b (Rodrigues with the axis perpendicular to a):
@@ -81,18 +85,32 @@ void TrajectoryFilter::move_towards(Eigen::Ref<Eigen::VectorXd> x, const Eigen::
     // Opposite directions: any great circle is shortest; take a fixed perpendicular.
     t = (std::abs(a.x()) < 0.9 ? a.cross(Vector3::UnitX()) : a.cross(Vector3::UnitY())).normalized();
   } else {
-    t = (b - a.dot(b) * a) / s;
+    t = perpendicular / s;
   }
-  x = std::cos(step) * a + std::sin(step) * t;
-  x.head<3>().normalize();
+  double sin_step, cos_step;
+  internal::small_angle_sincos(step, &sin_step, &cos_step);
+  const Vector3 rotated = cos_step * a + sin_step * t;
+  // |rotated| = 1 up to rounding: one Newton step towards unit length (no square root)
+  // keeps the stages from drifting.
+  x = rotated * (0.5 * (3.0 - rotated.squaredNorm()));
 }
 
 void TrajectoryFilter::update(const Eigen::Ref<const Eigen::VectorXd>& target, double dt) {
   const int n = parameters_.order;
-  const double fraction = 1.0 - std::exp(-parameters_.bandwidth * dt);
+  if (dt != fraction_dt_) {  // the cycle time rarely changes: exp only when it does
+    fraction_dt_ = dt;
+    fraction_ = 1.0 - std::exp(-parameters_.bandwidth * dt);
+  }
+  const double fraction = fraction_;
   const double infinite = std::numeric_limits<double>::infinity();
   previous_ = stages_.col(n - 1);
-  move_towards(stages_.col(0), target, fraction, parameters_.max_speed * dt);
+  if (kind_ == TargetKind::kDirection) {
+    // The stages are unit vectors; so is the target from here on.
+    const Vector3 unit_target = target.head<3>().normalized();
+    move_towards(stages_.col(0), unit_target, fraction, parameters_.max_speed * dt);
+  } else {
+    move_towards(stages_.col(0), target, fraction, parameters_.max_speed * dt);
+  }
   for (int k = 1; k < n; ++k) move_towards(stages_.col(k), stages_.col(k - 1), fraction, infinite);
   value_ = stages_.col(n - 1);
   velocity_ = (value_ - previous_) / dt;

@@ -1,5 +1,6 @@
 // Controller cycle: allocation-free, convergence to reachable targets on the paper model
 // and two URDFs, and the trajectory filter's guarantees (section III).
+#include <iostream>
 #include <memory>
 #include <random>
 
@@ -15,6 +16,8 @@
 #include "wbm/tasks/com_task.hpp"
 #include "wbm/tasks/position_task.hpp"
 #include "wbm/trajectory_filter.hpp"
+
+#include "small_angle.hpp"  // internal (src/)
 
 namespace {
 
@@ -155,6 +158,37 @@ TEST(TrajectoryFilter, DirectionsMoveOnGreatCirclesWithinTheAngularSpeed) {
     }
     EXPECT_LT((f.value() - b).norm(), 1e-6) << c;
   }
+}
+
+// The filters' small-angle atan2/sincos agree with the library to a few ulp inside their
+// range, at its boundary and just outside (where they call the library).
+TEST(TrajectoryFilter, SmallAngleFunctionsMatchTheLibrary) {
+  std::mt19937_64 rng(29);
+  std::uniform_real_distribution<double> angle(0.0, 0.12);
+  auto ulps = [](double value, double reference) {
+    return std::abs(value - reference) / (std::numeric_limits<double>::epsilon() * std::max(std::abs(reference), 1e-300));
+  };
+  double worst_atan2 = 0.0, worst_sin = 0.0, worst_cos = 0.0;
+  for (int c = 0; c < 200000; ++c) {
+    const double x = c == 0 ? 0.0 : c == 1 ? internal::kSmallAngle : c == 2 ? 1e-300 : (c % 2 ? -1 : 1) * angle(rng);
+    double s, co;
+    internal::small_angle_sincos(x, &s, &co);
+    if (x != 0.0) worst_sin = std::max(worst_sin, ulps(s, std::sin(x)));
+    worst_cos = std::max(worst_cos, ulps(co, std::cos(x)));
+    const double theta = std::abs(x), r = 0.3 + 2.0 * angle(rng);  // any radius
+    const double a = internal::small_angle_atan2(r * std::sin(theta), r * std::cos(theta));
+    if (theta == 0.0) {
+      ASSERT_EQ(a, 0.0);
+    } else {
+      worst_atan2 = std::max(worst_atan2, ulps(a, std::atan2(r * std::sin(theta), r * std::cos(theta))));
+    }
+  }
+  std::cout << "worst error [ulp]: sin " << worst_sin << ", cos " << worst_cos << ", atan2 " << worst_atan2 << "\n";
+  EXPECT_LE(worst_sin, 4.0);
+  EXPECT_LE(worst_cos, 4.0);
+  EXPECT_LE(worst_atan2, 4.0);
+  EXPECT_EQ(internal::small_angle_atan2(0.0, -1.0), std::atan2(0.0, -1.0));  // outside: the library
+  EXPECT_EQ(internal::small_angle_atan2(1.0, 0.0), std::atan2(1.0, 0.0));
 }
 
 }  // namespace

@@ -47,6 +47,7 @@ class TrajectoryFilter {
   const FilterParameters& parameters() const { return parameters_; }
 
  private:
+  /// One stage step. Directions: x and `to` are unit vectors.
   void move_towards(Eigen::Ref<Eigen::VectorXd> x, const Eigen::Ref<const Eigen::VectorXd>& to, double fraction,
                     double max_step) const;
 
@@ -54,6 +55,7 @@ class TrajectoryFilter {
   FilterParameters parameters_;
   Eigen::MatrixXd stages_;  // dim x order; the last column is the output
   Eigen::VectorXd value_, velocity_, previous_;
+  double fraction_dt_ = 0.0, fraction_ = 0.0;  // 1 - exp(-omega dt) for the last dt
 };
 
 }  // namespace wbm
