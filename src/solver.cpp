@@ -389,39 +389,52 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
       out_.task_scale = task_scale;
       out_.nullspace_scale = 0.0;
     } else {
-      // Largest s in [0, 1] with |qdot_task + s qdot_null| <= vmax for every dof.
+      // Largest s in [0, 1] with |qdot_task + s qdot_null| <= vmax for every dof; s = 1
+      // when the sum is within the limits (the common case: no divisions).
+      bool within = true;
+      for (int i = 0; i < n; ++i) within = within && std::abs(out_.qdot_task[i] + out_.qdot_null[i]) <= vmax[i];
       double s = 1.0;
-      for (int i = 0; i < n; ++i) {
-        const double qn = out_.qdot_null[i];
-        if (qn == 0.0) continue;
-        const double bound = (std::copysign(vmax[i], qn) - out_.qdot_task[i]) / qn;
-        s = std::min(s, std::max(bound, 0.0));
+      if (!within) {
+        for (int i = 0; i < n; ++i) {
+          const double qn = out_.qdot_null[i];
+          if (qn == 0.0) continue;
+          const double bound = (std::copysign(vmax[i], qn) - out_.qdot_task[i]) / qn;
+          s = std::min(s, std::max(bound, 0.0));
+        }
       }
       if (s < 1.0) status.flags |= kNullSpaceSpeedScaled;
       out_.nullspace_scale = s;
     }
   }
   if (parameters_.nullspace_rate_change_limit > 0.0 && out_.nullspace_scale > 0.0) {
-    // Jerk limit: the largest s' <= s with |s' qdot_null - previous| <= k vmax dt for all dofs.
-    double lo = 0.0, hi = out_.nullspace_scale;
-    double num = 0.0, den = 0.0;
-    for (int i = 0; i < n; ++i) {
-      const double qn = out_.qdot_null[i];
-      const double step = parameters_.nullspace_rate_change_limit * vmax[i] * dt;
-      const double prev = previous_null_[i];
-      if (qn == 0.0) continue;
-      double a = (prev - step) / qn, b = (prev + step) / qn;
-      if (a > b) std::swap(a, b);
-      lo = std::max(lo, a);
-      hi = std::min(hi, b);
-      num += qn * prev / (step * step);
-      den += qn * qn / (step * step);
-    }
-    double s = hi;
-    if (lo > hi) s = std::clamp(den > 0.0 ? num / den : 0.0, 0.0, out_.nullspace_scale);  // closest feasible
-    if (s < out_.nullspace_scale) {
-      status.flags |= kNullSpaceJerkLimited;
-      out_.nullspace_scale = s;
+    // Jerk limit: the largest s' <= s with |s' qdot_null - previous| <= k vmax dt for all
+    // dofs. s itself satisfies it in the common case, checked first without divisions.
+    const double k_dt = parameters_.nullspace_rate_change_limit * dt;
+    const double scale = out_.nullspace_scale;
+    bool feasible = true;
+    for (int i = 0; i < n; ++i)
+      feasible = feasible && std::abs(scale * out_.qdot_null[i] - previous_null_[i]) <= k_dt * vmax[i];
+    if (!feasible) {
+      double lo = 0.0, hi = scale;
+      double num = 0.0, den = 0.0;
+      for (int i = 0; i < n; ++i) {
+        const double qn = out_.qdot_null[i];
+        const double step = k_dt * vmax[i];
+        const double prev = previous_null_[i];
+        if (qn == 0.0) continue;
+        double a = (prev - step) / qn, b = (prev + step) / qn;
+        if (a > b) std::swap(a, b);
+        lo = std::max(lo, a);
+        hi = std::min(hi, b);
+        num += qn * prev / (step * step);
+        den += qn * qn / (step * step);
+      }
+      double s = hi;
+      if (lo > hi) s = std::clamp(den > 0.0 ? num / den : 0.0, 0.0, scale);  // closest feasible
+      if (s < scale) {
+        status.flags |= kNullSpaceJerkLimited;
+        out_.nullspace_scale = s;
+      }
     }
   }
   out_.qdot_null *= out_.nullspace_scale;
