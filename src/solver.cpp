@@ -34,6 +34,8 @@ WholeBodySolver::WholeBodySolver(const Model& model, int max_rows, const SolverP
   Jt_.setZero(n + 1, m);  // one spare row: padding to an even number of free dofs
   Jwt_.setZero(n + 1, m);
   gradient_free_.setZero(n + 1);
+  w_free_.setZero(n + 1);
+  zero_column_.setZero(m);
   task_free_.setZero(n + 1);
   null_free_.setZero(n + 1);
   u_rhs_.setZero(m);
@@ -226,19 +228,26 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
   const Eigen::Index ld = Jt_.outerStride();
   double* __restrict__ Jt = Jt_.data();
   double* __restrict__ Jwt = Jwt_.data();
-  for (int c = 0; c < nf; ++c) {
-    const int k = free_index_[c];
-    const double* column = J.data() + k * J.outerStride();
-    const double w = w_[k];
+  // Two dofs at a time, so that each store writes two neighbouring entries of a task row;
+  // an odd last dof is paired with a zero column.
+  const double* zero = zero_column_.data();
+  for (int c = 0; c < nf; c += 2) {
+    const double* column0 = J.data() + free_index_[c] * J.outerStride();
+    const double* column1 = c + 1 < nf ? J.data() + free_index_[c + 1] * J.outerStride() : zero;
     for (int i = 0; i < m; ++i) {
-      Jt[i * ld + c] = column[i];
-      Jwt[i * ld + c] = w * column[i];
+      double* entry = Jt + i * ld + c;
+      entry[0] = column0[i];
+      entry[1] = column1[i];
     }
-    gradient_free_[c] = gradient[k];
+    gradient_free_[c] = gradient[free_index_[c]];
+    w_free_[c] = w_[free_index_[c]];
+    gradient_free_[c + 1] = c + 1 < nf ? gradient[free_index_[c + 1]] : 0.0;
+    w_free_[c + 1] = c + 1 < nf ? w_[free_index_[c + 1]] : 0.0;
   }
-  if (np != nf) {
-    for (int i = 0; i < m; ++i) Jt[i * ld + nf] = Jwt[i * ld + nf] = 0.0;
-    gradient_free_[nf] = 0.0;
+  for (int i = 0; i < m; ++i) {
+    const double* __restrict__ row = Jt + i * ld;
+    double* __restrict__ weighted = Jwt + i * ld;
+    for (int c = 0; c < np; ++c) weighted[c] = w_free_[c] * row[c];
   }
   // A = J W^-1 J^T (lower triangle) in 2 x 2 blocks: one pass over the dofs, four entries.
   for (int j = 0; j < m; j += 2) {

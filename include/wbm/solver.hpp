@@ -127,9 +127,10 @@ class WholeBodySolver {
   Eigen::VectorXd range_sq_;  // r_i^2
   std::vector<int> free_index_;  // the free dofs, in order
   // Over the free dofs, padded with a zero to an even length: J^T and W^-1 J^T ((n+1) x m),
-  // dH/dq, W^-1 J^T y and W^-1 J^T u.
+  // dH/dq, W^-1, W^-1 J^T y and W^-1 J^T u.
   Eigen::MatrixXd Jt_, Jwt_;
-  Eigen::VectorXd gradient_free_, task_free_, null_free_;
+  Eigen::VectorXd gradient_free_, w_free_, task_free_, null_free_;
+  Eigen::VectorXd zero_column_;  // max rows zeros: the padding column
   Eigen::MatrixXd A_;   // J W^-1 J^T (lower triangle used)
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> L_;  // Cholesky factor
   Eigen::VectorXd inverse_diagonal_;
