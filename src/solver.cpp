@@ -5,6 +5,8 @@
 
 #include "wbm/errors.hpp"
 
+#include "dot_kernels.hpp"
+
 namespace wbm {
 namespace {
 
@@ -21,7 +23,7 @@ void check(const SolverParameters& p) {
 }  // namespace
 
 WholeBodySolver::WholeBodySolver(const Model& model, int max_rows, const SolverParameters& parameters)
-    : model_(model), parameters_(parameters), max_rows_(max_rows) {
+    : model_(model), parameters_(parameters), max_rows_(max_rows), gram_(internal::select_weighted_gram()) {
   check(parameters);
   if (max_rows < 0) throw ConfigError("solver: max_rows must be >= 0");
   const int n = model.num_dofs();
@@ -31,13 +33,13 @@ WholeBodySolver::WholeBodySolver(const Model& model, int max_rows, const SolverP
   range_sq_.resize(n);
   for (int i = 0; i < n; ++i) range_sq_[i] = model.dof(i).work_range * model.dof(i).work_range;
   free_index_.assign(n, 0);
-  Jt_.setZero(n + 1, m);  // one spare row: padding to an even number of free dofs
-  Jwt_.setZero(n + 1, m);
-  gradient_free_.setZero(n + 1);
-  w_free_.setZero(n + 1);
+  Jt_.setZero(n + 3, m);  // spare rows: padding to a multiple of four free dofs
+  Jwt_.setZero(n + 3, m);
+  gradient_free_.setZero(n + 3);
+  w_free_.setZero(n + 3);
   zero_column_.setZero(m);
-  task_free_.setZero(n + 1);
-  null_free_.setZero(n + 1);
+  task_free_.setZero(n + 3);
+  null_free_.setZero(n + 3);
   u_rhs_.setZero(m);
   A_.setZero(m, m);
   L_.setZero(m, m);
@@ -63,71 +65,6 @@ void WholeBodySolver::reset() {
   last_estimate_ = 0.0;
 }
 
-namespace {
-
-#if defined(__GNUC__)
-// Two doubles per operation (SSE2 on x86-64, NEON on AArch64) through the GCC/Clang vector
-// extension: the compiler may not reorder floating-point sums itself, so the two lanes of
-// the reductions below are spelled out (other compilers: the plain loops).
-using Lanes = double __attribute__((vector_size(16)));
-inline Lanes load_lanes(const double* p) {
-  Lanes v;
-  __builtin_memcpy(&v, p, sizeof v);
-  return v;
-}
-#endif
-
-/// Four inner products of two pairs of vectors of n entries: s = {b0.a0, b0.a1, b1.a0, b1.a1}.
-inline void four_dot_products(const double* a0, const double* a1, const double* b0, const double* b1, int n,
-                              double s[4]) {
-  int k = 0;
-#if defined(__GNUC__)
-  Lanes s00 = {0.0, 0.0}, s01 = s00, s10 = s00, s11 = s00;
-  for (; k + 1 < n; k += 2) {
-    const Lanes x0 = load_lanes(a0 + k), x1 = load_lanes(a1 + k);
-    const Lanes y0 = load_lanes(b0 + k), y1 = load_lanes(b1 + k);
-    s00 += y0 * x0;
-    s01 += y0 * x1;
-    s10 += y1 * x0;
-    s11 += y1 * x1;
-  }
-  s[0] = s00[0] + s00[1];
-  s[1] = s01[0] + s01[1];
-  s[2] = s10[0] + s10[1];
-  s[3] = s11[0] + s11[1];
-#else
-  s[0] = s[1] = s[2] = s[3] = 0.0;
-#endif
-  for (; k < n; ++k) {
-    s[0] += b0[k] * a0[k];
-    s[1] += b0[k] * a1[k];
-    s[2] += b1[k] * a0[k];
-    s[3] += b1[k] * a1[k];
-  }
-}
-
-/// Two inner products of n entries: s = {b0.a, b1.a}.
-inline void two_dot_products(const double* a, const double* b0, const double* b1, int n, double s[2]) {
-  int k = 0;
-#if defined(__GNUC__)
-  Lanes s0 = {0.0, 0.0}, s1 = s0;
-  for (; k + 1 < n; k += 2) {
-    const Lanes x = load_lanes(a + k);
-    s0 += load_lanes(b0 + k) * x;
-    s1 += load_lanes(b1 + k) * x;
-  }
-  s[0] = s0[0] + s0[1];
-  s[1] = s1[0] + s1[1];
-#else
-  s[0] = s[1] = 0.0;
-#endif
-  for (; k < n; ++k) {
-    s[0] += b0[k] * a[k];
-    s[1] += b1[k] * a[k];
-  }
-}
-
-}  // namespace
 
 bool WholeBodySolver::factorize(int m) {
   // Cholesky A = L L^T (lower triangle of A) into the row-major L: every inner product
@@ -139,7 +76,7 @@ bool WholeBodySolver::factorize(int m) {
   for (int j = 0; j < m; ++j) {
     const double* Lj = &L_(j, 0);
     double s[2];
-    two_dot_products(Lj, Lj, Lj, j, s);
+    internal::two_dot_products(Lj, Lj, Lj, j, s);
     const double d = A_(j, j) - s[0];
     if (!(d > tiny)) return false;
     const double l = std::sqrt(d);
@@ -148,7 +85,7 @@ bool WholeBodySolver::factorize(int m) {
     inverse_diagonal_[j] = inv;
     for (int i = j + 1; i < m; i += 2) {
       const int i1 = std::min(i + 1, m - 1);
-      two_dot_products(Lj, &L_(i, 0), &L_(i1, 0), j, s);
+      internal::two_dot_products(Lj, &L_(i, 0), &L_(i1, 0), j, s);
       L_(i, j) = (A_(i, j) - s[0]) * inv;
       L_(i1, j) = (A_(i1, j) - s[1]) * inv;
     }
@@ -224,23 +161,23 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
   }
   // Task rows as contiguous columns over the free dofs: Jt = J^T and Jwt = W^-1 J^T
   // (nf x m, padded with a zero to an even length for the two-lane products).
-  const int np = (nf + 1) & ~1;
+  const int np = (nf + 3) & ~3;
   const Eigen::Index ld = Jt_.outerStride();
   double* __restrict__ Jt = Jt_.data();
   double* __restrict__ Jwt = Jwt_.data();
   // Two dofs at a time, so that each store writes two neighbouring entries of a task row;
-  // an odd last dof is paired with a zero column.
+  // padded with zero columns to a multiple of four.
   const double* zero = zero_column_.data();
-  for (int c = 0; c < nf; c += 2) {
-    const double* column0 = J.data() + free_index_[c] * J.outerStride();
+  for (int c = 0; c < np; c += 2) {
+    const double* column0 = c < nf ? J.data() + free_index_[c] * J.outerStride() : zero;
     const double* column1 = c + 1 < nf ? J.data() + free_index_[c + 1] * J.outerStride() : zero;
     for (int i = 0; i < m; ++i) {
       double* entry = Jt + i * ld + c;
       entry[0] = column0[i];
       entry[1] = column1[i];
     }
-    gradient_free_[c] = gradient[free_index_[c]];
-    w_free_[c] = w_[free_index_[c]];
+    gradient_free_[c] = c < nf ? gradient[free_index_[c]] : 0.0;
+    w_free_[c] = c < nf ? w_[free_index_[c]] : 0.0;
     gradient_free_[c + 1] = c + 1 < nf ? gradient[free_index_[c + 1]] : 0.0;
     w_free_[c + 1] = c + 1 < nf ? w_[free_index_[c + 1]] : 0.0;
   }
@@ -249,24 +186,13 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
     double* __restrict__ weighted = Jwt + i * ld;
     for (int c = 0; c < np; ++c) weighted[c] = w_free_[c] * row[c];
   }
-  // A = J W^-1 J^T (lower triangle) in 2 x 2 blocks: one pass over the dofs, four entries.
-  for (int j = 0; j < m; j += 2) {
-    const int j1 = std::min(j + 1, m - 1);
-    for (int i = j; i < m; i += 2) {
-      const int i1 = std::min(i + 1, m - 1);
-      double s[4];
-      four_dot_products(Jt + j * ld, Jt + j1 * ld, Jwt + i * ld, Jwt + i1 * ld, np, s);
-      A_(i, j) = s[0];
-      A_(i, j1) = s[1];
-      A_(i1, j) = s[2];
-      A_(i1, j1) = s[3];
-    }
-  }
+  // A = J W^-1 J^T (lower triangle).
+  gram_(Jt, Jwt, ld, m, np, A_.data(), A_.outerStride());
   // u = J W^-1 dH/dq = J g, two rows at a time.
   for (int i = 0; i < m; i += 2) {
     const int i1 = std::min(i + 1, m - 1);
     double s[2];
-    two_dot_products(gradient_free_.data(), Jwt + i * ld, Jwt + i1 * ld, np, s);
+    internal::two_dot_products(gradient_free_.data(), Jwt + i * ld, Jwt + i1 * ld, np, s);
     u_rhs_[i] = s[0];
     u_rhs_[i1] = s[1];
   }

@@ -20,6 +20,8 @@
 #include "wbm/tasks/joint_task.hpp"
 #include "wbm/tasks/position_task.hpp"
 
+#include "dot_kernels.hpp"  // internal (src/)
+
 namespace {
 
 using namespace wbm;
@@ -56,6 +58,39 @@ void randomize_targets(const Model& model, const Data& data, TaskStack& stack, s
   for (int i = 0; i < x.size(); ++i) x[i] += n(rng);
   stack.targets() = x;
   stack.target_rates().setZero();
+}
+
+// Both kernels of A = J W^-1 J^T (the one the solver picks for this CPU and the portable
+// one) agree with Eigen's product on random sizes and entries, including odd row counts.
+TEST(Solver, GramKernelsMatchEigen) {
+  std::mt19937_64 rng(41);
+  std::vector<std::pair<std::string, wbm::internal::GramKernel>> kernels = {
+      {"portable", &wbm::internal::weighted_gram_portable}};
+  if (wbm::internal::select_weighted_gram() != &wbm::internal::weighted_gram_portable)
+    kernels.emplace_back("avx2", wbm::internal::weighted_gram_avx2());
+  else
+    std::cout << "this CPU has no AVX2/FMA: only the portable kernel is tested\n";
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  auto random_matrix = [&](Eigen::Index rows, Eigen::Index cols) {
+    return Eigen::MatrixXd(Eigen::MatrixXd::NullaryExpr(rows, cols, [&] { return uniform(rng); }));
+  };
+  for (int c = 0; c < 2000; ++c) {
+    const int m = 1 + static_cast<int>(rng() % 40), n = 4 * (1 + static_cast<int>(rng() % 25));
+    const Eigen::Index ld = n + static_cast<Eigen::Index>(rng() % 3);
+    const Eigen::MatrixXd Jt = random_matrix(ld, m), w = random_matrix(n, 1).cwiseAbs();
+    Eigen::MatrixXd Jwt = Jt;
+    Jwt.topRows(n) = w.asDiagonal() * Jt.topRows(n);
+    const Eigen::MatrixXd expected = Jt.topRows(n).transpose() * Jwt.topRows(n);
+    for (const auto& [name, kernel] : kernels) {
+      Eigen::MatrixXd A = Eigen::MatrixXd::Constant(m + 1, m, std::nan(""));
+      kernel(Jt.data(), Jwt.data(), ld, m, n, A.data(), A.outerStride());
+      const Eigen::MatrixXd lower = A.topRows(m).triangularView<Eigen::Lower>();
+      const Eigen::MatrixXd lower_expected = expected.triangularView<Eigen::Lower>();
+      ASSERT_LE((lower - lower_expected).cwiseAbs().maxCoeff(), 1e-12 * (1.0 + expected.cwiseAbs().maxCoeff()))
+          << name << " m " << m << " n " << n << " case " << c;
+      ASSERT_TRUE(A.row(m).array().isNaN().all()) << name << ": wrote outside A, case " << c;
+    }
+  }
 }
 
 TEST(Solver, PseudoInverseAndNullSpaceIdentities) {

@@ -122,11 +122,13 @@ class WholeBodySolver {
   const Model& model_;
   SolverParameters parameters_;
   int max_rows_;
+  /// Kernel of A = J W^-1 J^T, chosen for this CPU at construction (AVX2/FMA or portable).
+  void (*gram_)(const double* Jt, const double* Jwt, Eigen::Index ld, int m, int n, double* A, Eigen::Index lda);
   Mask free_;                 // b_C, plus dofs frozen at their limits
   Eigen::VectorXd w_;         // W^-1 diagonal with frozen dofs zeroed
   Eigen::VectorXd range_sq_;  // r_i^2
   std::vector<int> free_index_;  // the free dofs, in order
-  // Over the free dofs, padded with a zero to an even length: J^T and W^-1 J^T ((n+1) x m),
+  // Over the free dofs, zero-padded to a multiple of four: J^T and W^-1 J^T ((n+3) x m),
   // dH/dq, W^-1, W^-1 J^T y and W^-1 J^T u.
   Eigen::MatrixXd Jt_, Jwt_;
   Eigen::VectorXd gradient_free_, w_free_, task_free_, null_free_;

@@ -1,0 +1,87 @@
+#pragma once
+/// @file
+/// Internal (not installed): the small inner-product kernels of the solver, and the
+/// kernel of A = J W^-1 J^T with a CPU-dispatched AVX2/FMA variant.
+
+#include <Eigen/Core>
+
+namespace wbm::internal {
+
+#if defined(__GNUC__)
+// Two doubles per operation (SSE2 on x86-64, NEON on AArch64) through the GCC/Clang vector
+// extension: the compiler may not reorder floating-point sums itself, so the two lanes of
+// the reductions below are spelled out (other compilers: the plain loops).
+using Lanes = double __attribute__((vector_size(16)));
+inline Lanes load_lanes(const double* p) {
+  Lanes v;
+  __builtin_memcpy(&v, p, sizeof v);
+  return v;
+}
+#endif
+
+/// Four inner products of two pairs of vectors of n entries: s = {b0.a0, b0.a1, b1.a0, b1.a1}.
+inline void four_dot_products(const double* a0, const double* a1, const double* b0, const double* b1, int n,
+                              double s[4]) {
+  int k = 0;
+#if defined(__GNUC__)
+  Lanes s00 = {0.0, 0.0}, s01 = s00, s10 = s00, s11 = s00;
+  for (; k + 1 < n; k += 2) {
+    const Lanes x0 = load_lanes(a0 + k), x1 = load_lanes(a1 + k);
+    const Lanes y0 = load_lanes(b0 + k), y1 = load_lanes(b1 + k);
+    s00 += y0 * x0;
+    s01 += y0 * x1;
+    s10 += y1 * x0;
+    s11 += y1 * x1;
+  }
+  s[0] = s00[0] + s00[1];
+  s[1] = s01[0] + s01[1];
+  s[2] = s10[0] + s10[1];
+  s[3] = s11[0] + s11[1];
+#else
+  s[0] = s[1] = s[2] = s[3] = 0.0;
+#endif
+  for (; k < n; ++k) {
+    s[0] += b0[k] * a0[k];
+    s[1] += b0[k] * a1[k];
+    s[2] += b1[k] * a0[k];
+    s[3] += b1[k] * a1[k];
+  }
+}
+
+/// Two inner products of n entries: s = {b0.a, b1.a}.
+inline void two_dot_products(const double* a, const double* b0, const double* b1, int n, double s[2]) {
+  int k = 0;
+#if defined(__GNUC__)
+  Lanes s0 = {0.0, 0.0}, s1 = s0;
+  for (; k + 1 < n; k += 2) {
+    const Lanes x = load_lanes(a + k);
+    s0 += load_lanes(b0 + k) * x;
+    s1 += load_lanes(b1 + k) * x;
+  }
+  s[0] = s0[0] + s0[1];
+  s[1] = s1[0] + s1[1];
+#else
+  s[0] = s[1] = 0.0;
+#endif
+  for (; k < n; ++k) {
+    s[0] += b0[k] * a[k];
+    s[1] += b1[k] * a[k];
+  }
+}
+
+
+/// Lower triangle (and the entries next to it in 2 x 2 blocks) of A = Jt^T Jwt: Jt and Jwt
+/// are n x m column-major with leading dimension ld, n a multiple of 4 (zero-padded); A is
+/// column-major with leading dimension lda.
+using GramKernel = void (*)(const double* Jt, const double* Jwt, Eigen::Index ld, int m, int n, double* A,
+                            Eigen::Index lda);
+/// Two-lane version (SSE2 on x86-64; any CPU).
+void weighted_gram_portable(const double* Jt, const double* Jwt, Eigen::Index ld, int m, int n, double* A,
+                            Eigen::Index lda);
+/// Four-lane AVX2/FMA version, or nullptr where it is not compiled in (not x86-64 GCC/Clang).
+GramKernel weighted_gram_avx2();
+/// The AVX2/FMA kernel if this CPU has AVX2 and FMA, else the portable one. The results
+/// differ only in the order of the sums (a few ulp).
+GramKernel select_weighted_gram();
+
+}  // namespace wbm::internal
