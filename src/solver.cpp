@@ -43,6 +43,8 @@ WholeBodySolver::WholeBodySolver(const Model& model, int max_rows, const SolverP
   u_rhs_.setZero(m);
   A_.setZero(m, m);
   L_.setZero(m, m);
+  E_.setZero(m, m);
+  pivot_.setZero(m);
   inverse_diagonal_.setZero(m);
   y_.setZero(m);
   v_.setZero(m);
@@ -67,27 +69,38 @@ void WholeBodySolver::reset() {
 
 
 bool WholeBodySolver::factorize(int m) {
-  // Cholesky A = L L^T (lower triangle of A) into the row-major L: every inner product
-  // runs over two contiguous rows, two rows i at a time. The reciprocal diagonal is kept
-  // for the solves.
+  // A = L D L^T (square-root-free Cholesky), L unit lower triangular, row-major, and
+  // E = L D (row-major) so that each entry is one inner product of two contiguous rows:
+  // E_ij = A_ij - sum_k<j L_ik E_jk, L_ij = E_ij / D_j. The pivots D_i are kept as running
+  // sums, updated as soon as each column is known: at these sizes the factorisation is
+  // bound by the latency of the pivot chain, which is then one division and two multiply-
+  // adds per column (no square root, no inner product).
   double max_diagonal = 0.0;
-  for (int j = 0; j < m; ++j) max_diagonal = std::max(max_diagonal, A_(j, j));
+  for (int j = 0; j < m; ++j) {
+    pivot_[j] = A_(j, j);
+    max_diagonal = std::max(max_diagonal, A_(j, j));
+  }
   const double tiny = 1e-13 * std::max(max_diagonal, 1e-300);
   for (int j = 0; j < m; ++j) {
-    const double* Lj = &L_(j, 0);
-    double s[2];
-    internal::two_dot_products(Lj, Lj, Lj, j, s);
-    const double d = A_(j, j) - s[0];
+    const double d = pivot_[j];
     if (!(d > tiny)) return false;
-    const double l = std::sqrt(d);
-    L_(j, j) = l;
-    const double inv = 1.0 / l;
+    const double inv = 1.0 / d;
     inverse_diagonal_[j] = inv;
+    const double* Ej = &E_(j, 0);
     for (int i = j + 1; i < m; i += 2) {
       const int i1 = std::min(i + 1, m - 1);
-      internal::two_dot_products(Lj, &L_(i, 0), &L_(i1, 0), j, s);
-      L_(i, j) = (A_(i, j) - s[0]) * inv;
-      L_(i1, j) = (A_(i1, j) - s[1]) * inv;
+      double s[2];
+      internal::two_dot_products(Ej, &L_(i, 0), &L_(i1, 0), j, s);
+      const double e0 = A_(i, j) - s[0], e1 = A_(i1, j) - s[1];
+      const double l0 = e0 * inv, l1 = e1 * inv;
+      E_(i, j) = e0;
+      L_(i, j) = l0;
+      pivot_[i] -= l0 * e0;
+      if (i1 != i) {
+        E_(i1, j) = e1;
+        L_(i1, j) = l1;
+        pivot_[i1] -= l1 * e1;
+      }
     }
   }
   return true;
@@ -95,21 +108,24 @@ bool WholeBodySolver::factorize(int m) {
 
 template <int K>
 void WholeBodySolver::solve_in_place(int m, double* const (&x)[K]) const {
-  // L y = b by rows (dot products), then L^T x = y by rows of L (axpy): both contiguous.
-  // The K right-hand sides share each pass over L, so their dependency chains overlap.
+  // L z = b by rows (dot products), y = D^-1 z, then L^T x = y by rows of L (axpy): both
+  // over contiguous rows. The K right-hand sides share each pass over L, so that their
+  // dependency chains overlap.
   const double* __restrict__ inv = inverse_diagonal_.data();
-  for (int i = 0; i < m; ++i) {
+  for (int i = 1; i < m; ++i) {
     const double* __restrict__ Li = &L_(i, 0);
     double s[K];
     for (int r = 0; r < K; ++r) s[r] = x[r][i];
     for (int k = 0; k < i; ++k)
       for (int r = 0; r < K; ++r) s[r] -= Li[k] * x[r][k];
-    for (int r = 0; r < K; ++r) x[r][i] = s[r] * inv[i];
+    for (int r = 0; r < K; ++r) x[r][i] = s[r];
   }
-  for (int i = m - 1; i >= 0; --i) {
+  for (int i = 0; i < m; ++i)
+    for (int r = 0; r < K; ++r) x[r][i] *= inv[i];
+  for (int i = m - 1; i > 0; --i) {
     const double* __restrict__ Li = &L_(i, 0);
     double xi[K];
-    for (int r = 0; r < K; ++r) xi[r] = x[r][i] *= inv[i];
+    for (int r = 0; r < K; ++r) xi[r] = x[r][i];
     for (int k = 0; k < i; ++k)
       for (int r = 0; r < K; ++r) x[r][k] -= Li[k] * xi[r];
   }

@@ -70,7 +70,7 @@ struct SolverOutput {
 /// J# zero and row i of N W^-1 zero, exactly as the paper's zero column plus N diagonal rule
 /// (IV.D); the dof moves exactly zero.
 ///
-/// Factorisation: Cholesky of A = J W^-1 J^T (m x m). The smallest eigenvalue of A
+/// Factorisation: A = J W^-1 J^T = L D L^T (m x m, square-root-free Cholesky). The smallest eigenvalue of A
 /// (sigma_min^2) is estimated by inverse iteration warm-started from the previous cycle
 /// (one step per cycle; two near the threshold, three when the row count changed). Below the threshold eps the damped form A + lambda^2 E is used with
 /// lambda^2 = lambda_max^2 (1 - sigma_min^2 / eps^2) (singularity-robust inverse, Nakamura
@@ -134,8 +134,10 @@ class WholeBodySolver {
   Eigen::VectorXd gradient_free_, w_free_, task_free_, null_free_;
   Eigen::VectorXd zero_column_;  // max rows zeros: the padding column
   Eigen::MatrixXd A_;   // J W^-1 J^T (lower triangle used)
-  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> L_;  // Cholesky factor
-  Eigen::VectorXd inverse_diagonal_;
+  // A = L D L^T: L unit lower triangular and E = L D, below the diagonal (row-major).
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> L_, E_;
+  Eigen::VectorXd pivot_;             // running pivots during the factorisation
+  Eigen::VectorXd inverse_diagonal_;  // D^-1
   Eigen::VectorXd y_, v_, g_, u_, u_rhs_;
   Eigen::VectorXd previous_null_;
   int previous_rows_ = -1;
