@@ -137,11 +137,11 @@ ControllerStatus Controller::update(const Command& command, double dt) {
   q_total_ = solver_->output().qdot;
   if (external) q_total_ += external_;
   status.flags |= integrate(model_, q_, q_total_, dt, q_next_);
-  qdot_ = (q_next_ - q_) / dt;
+  qdot_ = (q_next_ - q_) * (1.0 / dt);
   q_ = q_next_;
   previous_values_ = values_;
   update_kinematics();
-  value_rates_ = (values_ - previous_values_) / dt;
+  value_rates_ = (values_ - previous_values_) * (1.0 / dt);
   return status;
 }
 

@@ -17,7 +17,7 @@ inline double small_angle_atan2(double s, double c) {
   const double t = s / c, t2 = t * t;
   // t - t^3/3 + t^5/5 - ... - t^15/15; next term t^17/17 < 6e-19.
   return t * (1.0 + t2 * (-1.0 / 3 + t2 * (1.0 / 5 + t2 * (-1.0 / 7 + t2 * (1.0 / 9 + t2 * (-1.0 / 11 +
-                                                                                         t2 * (1.0 / 13 - t2 / 15)))))));
+                                                                                         t2 * (1.0 / 13 - t2 * (1.0 / 15))))))));
 }
 
 /// sin(x) and cos(x).
@@ -29,8 +29,8 @@ inline void small_angle_sincos(double x, double* sin_x, double* cos_x) {
   }
   const double x2 = x * x;
   // Next terms: x^11/11! < 3e-19 and x^12/12! < 3e-21.
-  *sin_x = x * (1.0 + x2 * (-1.0 / 6 + x2 * (1.0 / 120 + x2 * (-1.0 / 5040 + x2 / 362880))));
-  *cos_x = 1.0 + x2 * (-0.5 + x2 * (1.0 / 24 + x2 * (-1.0 / 720 + x2 * (1.0 / 40320 - x2 / 3628800))));
+  *sin_x = x * (1.0 + x2 * (-1.0 / 6 + x2 * (1.0 / 120 + x2 * (-1.0 / 5040 + x2 * (1.0 / 362880)))));
+  *cos_x = 1.0 + x2 * (-0.5 + x2 * (1.0 / 24 + x2 * (-1.0 / 720 + x2 * (1.0 / 40320 - x2 * (1.0 / 3628800)))));
 }
 
 }  // namespace wbm::internal

@@ -85,7 +85,7 @@ void TrajectoryFilter::move_towards(Eigen::Ref<Eigen::VectorXd> x, const Eigen::
     // Opposite directions: any great circle is shortest; take a fixed perpendicular.
     t = (std::abs(a.x()) < 0.9 ? a.cross(Vector3::UnitX()) : a.cross(Vector3::UnitY())).normalized();
   } else {
-    t = perpendicular / s;
+    t = perpendicular * (1.0 / s);
   }
   double sin_step, cos_step;
   internal::small_angle_sincos(step, &sin_step, &cos_step);
@@ -113,7 +113,7 @@ void TrajectoryFilter::update(const Eigen::Ref<const Eigen::VectorXd>& target, d
   }
   for (int k = 1; k < n; ++k) move_towards(stages_.col(k), stages_.col(k - 1), fraction, infinite);
   value_ = stages_.col(n - 1);
-  velocity_ = (value_ - previous_) / dt;
+  velocity_ = (value_ - previous_) * (1.0 / dt);
 }
 
 }  // namespace wbm
