@@ -114,11 +114,21 @@ void WholeBodySolver::solve_in_place(int m, double* const (&x)[K]) const {
   const double* __restrict__ inv = inverse_diagonal_.data();
   for (int i = 1; i < m; ++i) {
     const double* __restrict__ Li = &L_(i, 0);
-    double s[K];
-    for (int r = 0; r < K; ++r) s[r] = x[r][i];
-    for (int k = 0; k < i; ++k)
+    // Two partial sums per right-hand side halve the dependency chain of the inner product.
+    double s[K], t[K];
+    for (int r = 0; r < K; ++r) {
+      s[r] = x[r][i];
+      t[r] = 0.0;
+    }
+    int k = 0;
+    for (; k + 1 < i; k += 2)
+      for (int r = 0; r < K; ++r) {
+        s[r] -= Li[k] * x[r][k];
+        t[r] -= Li[k + 1] * x[r][k + 1];
+      }
+    if (k < i)
       for (int r = 0; r < K; ++r) s[r] -= Li[k] * x[r][k];
-    for (int r = 0; r < K; ++r) x[r][i] = s[r];
+    for (int r = 0; r < K; ++r) x[r][i] = s[r] + t[r];
   }
   for (int i = 0; i < m; ++i)
     for (int r = 0; r < K; ++r) x[r][i] *= inv[i];
@@ -197,10 +207,11 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
     gradient_free_[c + 1] = c + 1 < nf ? gradient[free_index_[c + 1]] : 0.0;
     w_free_[c + 1] = c + 1 < nf ? w_[free_index_[c + 1]] : 0.0;
   }
+  const double* __restrict__ w_free = w_free_.data();
   for (int i = 0; i < m; ++i) {
     const double* __restrict__ row = Jt + i * ld;
     double* __restrict__ weighted = Jwt + i * ld;
-    for (int c = 0; c < np; ++c) weighted[c] = w_free_[c] * row[c];
+    for (int c = 0; c < np; ++c) weighted[c] = w_free[c] * row[c];
   }
   // A = J W^-1 J^T (lower triangle).
   gram_(Jt, Jwt, ld, m, np, A_.data(), A_.outerStride());

@@ -42,7 +42,10 @@ void TaskStack::set_element_active(int element, bool active) {
 }
 
 bool TaskStack::element_active(int element) const {
-  return activation_.segment(row_offset_.at(element), elements_.at(element)->dim()).any();
+  const int r0 = row_offset_.at(element);
+  for (int r = r0; r < r0 + elements_[element]->dim(); ++r)
+    if (activation_[r]) return true;
+  return false;
 }
 
 void TaskStack::values(const Model& model, const Data& data, Eigen::Ref<Eigen::VectorXd> x) {
@@ -56,9 +59,11 @@ int TaskStack::assemble(const Model& model, const Data& data) {
   for (int i = 0; i < num_elements(); ++i) {
     TaskElement& e = *elements_[i];
     const int r0 = row_offset_[i];
-    if (!activation_.segment(r0, e.dim()).any()) continue;
+    int active = 0;
+    for (int r = r0; r < r0 + e.dim(); ++r) active += activation_[r] ? 1 : 0;
+    if (active == 0) continue;
     const int t0 = target_offset_[i];
-    const bool all = activation_.segment(r0, e.dim()).all();
+    const bool all = active == e.dim();
     // All rows active (the common case): the element writes straight into the assembled
     // Jacobian; otherwise into its full rows, and the active ones are copied.
     e.evaluate(model, data, targets_.segment(t0, e.target_dim()), rates_.segment(t0, e.target_dim()),

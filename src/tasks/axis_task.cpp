@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "../small_angle.hpp"
 #include "../zero_block.hpp"
 
 namespace wbm {
@@ -18,8 +19,8 @@ Matrix3 AxisTask::sl_frame(const Vector3& a_g, const Vector3& a_t, const Vector3
   const Vector3 t = a_t.normalized();
   const Vector3 c = z.cross(t);
   const double s = c.norm();
-  *phi = std::atan2(s, z.dot(t));
-  Vector3 y = s > 1e-12 ? Vector3(c / s) : Vector3((fallback_y - fallback_y.dot(z) * z).normalized());
+  *phi = internal::small_angle_atan2(s, z.dot(t));  // the tracking error: mostly small
+  Vector3 y = s > 1e-12 ? Vector3(c * (1.0 / s)) : Vector3((fallback_y - fallback_y.dot(z) * z).normalized());
   Matrix3 R;
   R.col(0) = y.cross(z);
   R.col(1) = y;
