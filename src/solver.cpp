@@ -70,38 +70,60 @@ void WholeBodySolver::reset() {
 
 bool WholeBodySolver::factorize(int m) {
   // A = L D L^T (square-root-free Cholesky), L unit lower triangular, row-major, and
-  // E = L D (row-major) so that each entry is one inner product of two contiguous rows:
-  // E_ij = A_ij - sum_k<j L_ik E_jk, L_ij = E_ij / D_j. The pivots D_i are kept as running
-  // sums, updated as soon as each column is known: at these sizes the factorisation is
-  // bound by the latency of the pivot chain, which is then one division and two multiply-
-  // adds per column (no square root, no inner product).
+  // E = L D (row-major), so that each entry is an inner product of two contiguous rows:
+  // E_ij = A_ij - sum_k<j L_ik E_jk, L_ij = E_ij / D_j. Two columns at a time (2 x 2 blocks
+  // of inner products, as for A). The pivots D_i are running sums updated as soon as each
+  // column is known: the chain from one pivot to the next is a division and a few
+  // multiply-adds, no square root and no inner product.
   double max_diagonal = 0.0;
   for (int j = 0; j < m; ++j) {
     pivot_[j] = A_(j, j);
     max_diagonal = std::max(max_diagonal, A_(j, j));
   }
   const double tiny = 1e-13 * std::max(max_diagonal, 1e-300);
-  for (int j = 0; j < m; ++j) {
-    const double d = pivot_[j];
-    if (!(d > tiny)) return false;
-    const double inv = 1.0 / d;
-    inverse_diagonal_[j] = inv;
+  int j = 0;
+  for (; j + 1 < m; j += 2) {
+    const int j1 = j + 1;
     const double* Ej = &E_(j, 0);
-    for (int i = j + 1; i < m; i += 2) {
+    const double* Ej1 = &E_(j1, 0);
+    if (!(pivot_[j] > tiny)) return false;
+    const double inv0 = 1.0 / pivot_[j];
+    inverse_diagonal_[j] = inv0;
+    double s[4];
+    internal::four_dot_products(Ej, Ej, &L_(j1, 0), &L_(j1, 0), j, s);
+    const double e = A_(j1, j) - s[0];
+    E_(j1, j) = e;
+    L_(j1, j) = e * inv0;
+    pivot_[j1] -= L_(j1, j) * e;
+    if (!(pivot_[j1] > tiny)) return false;
+    const double inv1 = 1.0 / pivot_[j1];
+    inverse_diagonal_[j1] = inv1;
+    const double e_j1j = E_(j1, j);
+    for (int i = j + 2; i < m; i += 2) {
       const int i1 = std::min(i + 1, m - 1);
-      double s[2];
-      internal::two_dot_products(Ej, &L_(i, 0), &L_(i1, 0), j, s);
-      const double e0 = A_(i, j) - s[0], e1 = A_(i1, j) - s[1];
-      const double l0 = e0 * inv, l1 = e1 * inv;
-      E_(i, j) = e0;
-      L_(i, j) = l0;
-      pivot_[i] -= l0 * e0;
+      internal::four_dot_products(Ej, Ej1, &L_(i, 0), &L_(i1, 0), j, s);
+      // Column j, then column j + 1 with its k = j term.
+      const double e00 = A_(i, j) - s[0], e10 = A_(i1, j) - s[2];
+      const double l00 = e00 * inv0, l10 = e10 * inv0;
+      const double e01 = A_(i, j1) - s[1] - l00 * e_j1j, e11 = A_(i1, j1) - s[3] - l10 * e_j1j;
+      const double l01 = e01 * inv1, l11 = e11 * inv1;
+      E_(i, j) = e00;
+      L_(i, j) = l00;
+      E_(i, j1) = e01;
+      L_(i, j1) = l01;
+      pivot_[i] -= l00 * e00 + l01 * e01;
       if (i1 != i) {
-        E_(i1, j) = e1;
-        L_(i1, j) = l1;
-        pivot_[i1] -= l1 * e1;
+        E_(i1, j) = e10;
+        L_(i1, j) = l10;
+        E_(i1, j1) = e11;
+        L_(i1, j1) = l11;
+        pivot_[i1] -= l10 * e10 + l11 * e11;
       }
     }
+  }
+  if (j < m) {  // odd m: the last pivot
+    if (!(pivot_[j] > tiny)) return false;
+    inverse_diagonal_[j] = 1.0 / pivot_[j];
   }
   return true;
 }
