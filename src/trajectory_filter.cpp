@@ -4,7 +4,7 @@
 
 #include "wbm/errors.hpp"
 
-#include "small_angle.hpp"
+#include "fast_trig.hpp"
 
 namespace wbm {
 

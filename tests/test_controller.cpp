@@ -1,5 +1,7 @@
 // Controller cycle: allocation-free, convergence to reachable targets on the paper model
 // and two URDFs, and the trajectory filter's guarantees (section III).
+#include <algorithm>
+#include <cmath>
 #include <iostream>
 #include <memory>
 #include <random>
@@ -17,7 +19,7 @@
 #include "wbm/tasks/position_task.hpp"
 #include "wbm/trajectory_filter.hpp"
 
-#include "small_angle.hpp"  // internal (src/)
+#include "fast_trig.hpp"  // internal (src/)
 
 namespace {
 

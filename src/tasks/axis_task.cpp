@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "../small_angle.hpp"
+#include "../fast_trig.hpp"
 #include "../zero_block.hpp"
 
 namespace wbm {

@@ -1,9 +1,11 @@
 #pragma once
 /// @file
-/// Internal (not installed): atan2, sin and cos for the small angles the trajectory filters
-/// turn by every cycle. Truncated Taylor series, accurate to a few ulp where they are used
-/// (|angle| <= kSmallAngle; the truncation error is below 1e-17 relative) and several
-/// times cheaper than the library calls; outside that range the library is used.
+/// Internal (not installed): atan2, sin and cos for the small angles the filters and axis
+/// elements meet every cycle, inline and several times cheaper than the library calls:
+/// truncated Taylor series, accurate to a few ulp for |angle| <= kSmallAngle (the
+/// truncation error is below 1e-17 relative); the library outside that range. (For joint
+/// angles of any size, a Cody-Waite reduction plus series was tried and was slower than
+/// glibc's sincos: its Horner chain is longer than the library's table lookup.)
 
 #include <cmath>
 
