@@ -57,16 +57,24 @@ void TrajectoryFilter::reset_component(int i, double value, double velocity) {
 void TrajectoryFilter::move_towards(Eigen::Ref<Eigen::VectorXd> x, const Eigen::Ref<const Eigen::VectorXd>& to,
                                     double fraction, double max_step) const {
   if (kind_ == TargetKind::kVector) {
+    // Step fraction * distance, unless that exceeds max_step. Compared squared: the square
+    // root and the division are only needed when the speed limit binds.
     if (x.size() == 3) {  // the common case (positions), without dynamic-size overhead
       const Vector3 d = to.head<3>() - x.head<3>();
-      const double distance = d.norm();
-      if (distance > 0.0) x.head<3>() += d * (std::min(distance * fraction, max_step) / distance);
+      const double distance2 = d.squaredNorm();
+      if (fraction * fraction * distance2 <= max_step * max_step) {
+        x.head<3>() += fraction * d;
+      } else {
+        x.head<3>() += d * (max_step / std::sqrt(distance2));
+      }
       return;
     }
-    const double distance = (to - x).norm();
-    if (distance <= 0.0) return;
-    const double step = std::min(distance * fraction, max_step);
-    x += (to - x) * (step / distance);
+    const double distance2 = (to - x).squaredNorm();
+    if (fraction * fraction * distance2 <= max_step * max_step) {
+      x += fraction * (to - x);
+    } else {
+      x += (to - x) * (max_step / std::sqrt(distance2));
+    }
     return;
   }
   // Great circle: rotate x towards `to` by the step angle; both are unit vectors.
