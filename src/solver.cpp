@@ -90,7 +90,7 @@ bool WholeBodySolver::factorize(int m) {
     const double inv0 = 1.0 / pivot_[j];
     inverse_diagonal_[j] = inv0;
     double s[4];
-    internal::four_dot_products(Ej, Ej, &L_(j1, 0), &L_(j1, 0), j, s);
+    internal::two_dot_products(Ej, &L_(j1, 0), &L_(j1, 0), j, s);
     const double e = A_(j1, j) - s[0];
     E_(j1, j) = e;
     L_(j1, j) = e * inv0;
