@@ -257,7 +257,7 @@ def write_md(samples, context, fits, path):
              "O(n) (plus O(m) per element); the Jacobian rows (each element clears and fills its rows, the stack "
              "copies the active rows), O(n m); in the solver `J^T`, `W^-1 J^T`, `J^T y`, `J g` and "
              "`W^-1 J^T u`, O(n m) each; `A = J W^-1 J^T`, O(n m^2) (m(m+1)/2 dot products of length n; this term is "
-             "missing from the O(n m + m^3) the issue expected); the Cholesky factor of A, O(m^3) (m^3/6 "
+             "missing from the O(n m + m^3) the issue expected); the L D L^T factor of A, O(m^3) (m^3/6 "
              "multiply-adds, once, twice on damped cycles); inverse iteration and the triangular solves, O(m^2).\n")
     L.append("## Fits\n")
     L.append("Least-squares fits of the medians (relative errors) over all three sweeps; n = dofs, m = rows; "
@@ -320,7 +320,7 @@ def write_md(samples, context, fits, path):
                 rem = [dict(s, p=max(s["solve_p50_us"] - 1e-3 * s["dofs"] * (cs[0] + cs[1] * s["rows"] + cs[2] * s["rows"] ** 2),
                                      1e-3)) for s in pts]
                 cr = fit(rem, [lambda n, m: 1.0, lambda n, m: m * m, lambda n, m: m ** 3], "p")
-                L.append("solve minus its n-dependent part: %.3g us + %.3g ns m^2 + %.3g ns m^3 (the Cholesky "
+                L.append("solve minus its n-dependent part: %.3g us + %.3g ns m^2 + %.3g ns m^3 (the L D L^T "
                          "factor and the triangular solves)." % (cr[0], cr[1] * 1e3, cr[2] * 1e3))
                 L.append("")
     for label, (n, m) in (("largest tree of the dofs sweep", (max((s["dofs"] for s in dofs), default=0),
