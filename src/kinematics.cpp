@@ -93,9 +93,8 @@ void point_jacobian(const Model& model, const Data& data, int body, const Vector
                     Eigen::Ref<Eigen::MatrixXd> J) {
   const ColumnWriter w = clear(J);
   const Body* bodies = model.bodies().data();
-  for (int b = body; b >= 0; b = bodies[b].parent) {
+  for (const int b : model.moving_bodies(body)) {
     const Body& B = bodies[b];
-    if (B.dof < 0) continue;
     const Vector3& a = data.a_W[b];
     add(w.col(B.dof), B.multiplier, B.joint_type == JointType::kRevolute ? Vector3(a.cross(p_WQ - data.X_WB[b].p)) : a);
   }
@@ -104,9 +103,9 @@ void point_jacobian(const Model& model, const Data& data, int body, const Vector
 void rotational_jacobian(const Model& model, const Data& data, int body, Eigen::Ref<Eigen::MatrixXd> J) {
   const ColumnWriter w = clear(J);
   const Body* bodies = model.bodies().data();
-  for (int b = body; b >= 0; b = bodies[b].parent) {
+  for (const int b : model.moving_bodies(body)) {
     const Body& B = bodies[b];
-    if (B.dof >= 0 && B.joint_type == JointType::kRevolute) add(w.col(B.dof), B.multiplier, data.a_W[b]);
+    if (B.joint_type == JointType::kRevolute) add(w.col(B.dof), B.multiplier, data.a_W[b]);
   }
 }
 
@@ -115,9 +114,8 @@ void frame_jacobian(const Model& model, const Data& data, int frame, Eigen::Ref<
   const Vector3 p_WF = data.X_WB[f.body] * f.X_BF.p;
   const ColumnWriter w = clear(J);
   const Body* bodies = model.bodies().data();
-  for (int b = f.body; b >= 0; b = bodies[b].parent) {
+  for (const int b : model.moving_bodies(f.body)) {
     const Body& B = bodies[b];
-    if (B.dof < 0) continue;
     const Vector3& a = data.a_W[b];
     if (B.joint_type == JointType::kRevolute) {
       add(w.col(B.dof), B.multiplier, a.cross(p_WF - data.X_WB[b].p));
@@ -157,7 +155,6 @@ void com_jacobian(const Model& model, const Data& data, Eigen::Ref<Eigen::Matrix
   const int nb = static_cast<int>(bodies.size());
   for (int b = 0; b < nb; ++b) {
     const Body& B = bodies[b];
-    if (B.dof < 0) continue;
     const double m_sub = model.subtree_mass()[b];
     if (B.joint_type == JointType::kRevolute) {
       J.col(B.dof) += (B.multiplier * inv_mass) * data.a_W[b].cross(data.mc_W[b] - m_sub * data.X_WB[b].p);

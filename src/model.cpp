@@ -195,6 +195,14 @@ Model ModelBuilder::build() {
     }
     m.offset_without_rotation_[b] = body.X_PJ.R == Matrix3::Identity();
   }
+  m.chain_offset_.assign(nb + 1, 0);
+  m.chain_bodies_.clear();
+  for (int b = 0; b < nb; ++b) {
+    m.chain_offset_[b] = static_cast<int>(m.chain_bodies_.size());
+    for (int a = b; a >= 0; a = m.bodies_[a].parent)
+      if (m.bodies_[a].dof >= 0) m.chain_bodies_.push_back(a);
+  }
+  m.chain_offset_[nb] = static_cast<int>(m.chain_bodies_.size());
   m.subtree_mass_.assign(nb, 0.0);
   for (int b = nb - 1; b >= 0; --b) {
     m.subtree_mass_[b] += m.bodies_[b].inertial.mass;

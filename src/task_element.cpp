@@ -40,9 +40,8 @@ void express_point_jacobian_in_frame(const Model& model, const Data& data, int r
   // Prismatic: v_R = a, w_R = 0.
   const Body* bodies = model.bodies().data();
   const Eigen::Index stride = J.outerStride();
-  for (int b = model.frames()[reference].body; b >= 0; b = bodies[b].parent) {
+  for (const int b : model.moving_bodies(model.frames()[reference].body)) {
     const Body& B = bodies[b];
-    if (B.dof < 0) continue;
     const Vector3 a = B.multiplier * data.a_W[b];
     const Vector3 change = B.joint_type == JointType::kRevolute ? Vector3((p_WQ - data.X_WB[b].p).cross(a)) : Vector3(-a);
     double* col = J.data() + B.dof * stride;
@@ -81,9 +80,9 @@ void RelativeFrame::rotational_jacobian(const Model& model, const Data& data, Ei
   // revolute axes, then rotate every column.
   const Body* bodies = model.bodies().data();
   const Eigen::Index stride = J.outerStride();
-  for (int b = model.frames()[reference_].body; b >= 0; b = bodies[b].parent) {
+  for (const int b : model.moving_bodies(model.frames()[reference_].body)) {
     const Body& B = bodies[b];
-    if (B.dof < 0 || B.joint_type != JointType::kRevolute) continue;
+    if (B.joint_type != JointType::kRevolute) continue;
     double* col = J.data() + B.dof * stride;
     const Vector3 a = B.multiplier * data.a_W[b];
     col[0] -= a.x();

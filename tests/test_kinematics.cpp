@@ -8,6 +8,7 @@
 #include <map>
 #include <memory>
 #include <random>
+#include <span>
 #include <set>
 #include <sstream>
 #include <string>
@@ -214,6 +215,32 @@ TEST_P(Kinematics, JacobianTimesVelocityMatchesDirectionalDerivative) {
 }
 
 // The mimic coverage above is real: these models have dofs that drive several bodies.
+// moving_bodies(b) lists exactly the bodies with a dof on the path from the root to b, b's
+// side first, and a dof outside it has a zero Jacobian column at every configuration.
+TEST_P(Kinematics, MovingBodiesAreTheChainToTheRoot) {
+  const ShippedModel& entry = GetParam();
+  const Model model = entry.load();
+  std::mt19937_64 rng(seed_for(entry.id) + 7);
+  Data data(model);
+  Eigen::MatrixXd J(3, model.num_dofs());
+  for (int b = 0; b < model.num_bodies(); ++b) {
+    std::vector<int> expected;
+    for (int a = b; a >= 0; a = model.body(a).parent)
+      if (model.body(a).dof >= 0) expected.push_back(a);
+    const std::span<const int> chain = model.moving_bodies(b);
+    ASSERT_EQ(std::vector<int>(chain.begin(), chain.end()), expected) << entry.id << " body " << model.body(b).name;
+    std::vector<bool> moves(model.num_dofs(), false);
+    for (const int a : chain) moves[model.body(a).dof] = true;
+    forward_kinematics(model, data, wbm_test::random_configuration(model, rng));
+    point_jacobian(model, data, b, data.X_WB[b] * Vector3(0.1, -0.2, 0.3), J);
+    for (int d = 0; d < model.num_dofs(); ++d) {
+      if (!moves[d]) {
+        ASSERT_TRUE(J.col(d).isZero(0.0)) << entry.id << " body " << b << " dof " << d;
+      }
+    }
+  }
+}
+
 TEST_P(Kinematics, MimicModelsShareDofs) {
   const ShippedModel& entry = GetParam();
   const Model model = entry.load();

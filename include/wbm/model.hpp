@@ -4,6 +4,7 @@
 
 #include <array>
 #include <limits>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -105,6 +106,13 @@ class Model {
   const std::vector<int>& axis_codes() const { return axis_code_; }
   /// True where a body's joint offset X_PJ has no rotation.
   const std::vector<char>& offset_without_rotation() const { return offset_without_rotation_; }
+  /// The bodies with a dof on the path from the root to `body`, `body` first (if it has a
+  /// dof) and the root's side last: the joints that move it, i.e. the possibly non-zero
+  /// columns of its Jacobians. Precomputed, so the Jacobians walk an array instead of
+  /// chasing parent indices. @pre 0 <= body < num_bodies().
+  std::span<const int> moving_bodies(int body) const {
+    return {chain_bodies_.data() + chain_offset_[body], chain_bodies_.data() + chain_offset_[body + 1]};
+  }
 
   /// @throws ModelError naming the dof if there is none with this name.
   int dof_index(const std::string& name) const;
@@ -127,6 +135,7 @@ class Model {
   std::vector<double> subtree_mass_;
   std::vector<int> axis_code_;
   std::vector<char> offset_without_rotation_;
+  std::vector<int> chain_offset_, chain_bodies_;  // moving_bodies(b) = chain_bodies_[offset[b], offset[b + 1])
   Eigen::VectorXd home_, lower_, upper_, max_speed_;
 };
 

@@ -35,9 +35,9 @@ namespace {
 void add_projected_axes(const Model& model, const Data& data, int body, const Eigen::Matrix<double, 2, 3>& P,
                         double sign, Eigen::Ref<Eigen::MatrixXd>& J) {
   const Body* bodies = model.bodies().data();
-  for (int b = body; b >= 0; b = bodies[b].parent) {
+  for (const int b : model.moving_bodies(body)) {
     const Body& B = bodies[b];
-    if (B.dof < 0 || B.joint_type != JointType::kRevolute) continue;
+    if (B.joint_type != JointType::kRevolute) continue;
     const Eigen::Vector2d v = (sign * B.multiplier) * (P * data.a_W[b]);
     J(0, B.dof) += v.x();
     J(1, B.dof) += v.y();
