@@ -56,15 +56,14 @@ void AxisTask::evaluate(const Model& model, const Data& data, const Eigen::Ref<c
   // eq. (18): rows x and y of A_sl-I * J_R. The relative angular velocity in the reference
   // frame is R_WR^T (w_F - w_R), so the rows are P (w_F - w_R) with P = R_sl^T R_WR^T (rows
   // x, y); the joints the frame and the reference share cancel.
-  const Eigen::Matrix<double, 2, 3> P =
-      R_sl.leftCols<2>().transpose() * frame_.reference_rotation(model, data).transpose();
+  Eigen::Matrix<double, 2, 3> P = R_sl.leftCols<2>().transpose();
+  if (frame_.reference() >= 0) P = P * frame_.reference_rotation(model, data).transpose();
   internal::zero_block(J);
   add_projected_axes(model, data, model.frames()[frame_.frame()].body, P, 1.0, J);
   if (frame_.reference() >= 0) add_projected_axes(model, data, model.frames()[frame_.reference()].body, P, -1.0, J);
   error << 0.0, phi;
   // Angular velocity of the moving unit target: w = a_t x d(a_t)/dt.
-  const Vector3 unit_target = a_t.normalized();
-  const Vector3 w = unit_target.cross(target_rate.head<3>());
+  const Vector3 w = a_t.cross(Vector3(target_rate.head<3>())) * (1.0 / a_t.norm());
   rate = R_sl.leftCols<2>().transpose() * w;
 }
 
