@@ -82,8 +82,9 @@ void TrajectoryFilter::move_towards(Eigen::Ref<Eigen::VectorXd> x, const Eigen::
   const Vector3 b = to.head<3>();
   const double c = a.dot(b);
   const Vector3 perpendicular = b - c * a;  // |b - (a.b) a| = |a x b| = sin(angle)
-  const double s = perpendicular.norm();
-  const double angle = internal::small_angle_atan2(s, c);
+  const double s2 = perpendicular.squaredNorm();
+  const double s = std::sqrt(s2);
+  const double angle = internal::angle_between_unit_vectors(s, s2, c);
   if (angle <= 0.0) return;
   const double step = std::min(angle * fraction, max_step);
   // Rotate a by `step` in the plane of a and b (Rodrigues with the axis perpendicular to a):

@@ -162,35 +162,46 @@ TEST(TrajectoryFilter, DirectionsMoveOnGreatCirclesWithinTheAngularSpeed) {
   }
 }
 
-// The filters' small-angle atan2/sincos agree with the library to a few ulp inside their
-// range, at its boundary and just outside (where they call the library).
+// The filters' small-angle functions (angle between unit vectors, sin, cos) agree with the
+// library to a few ulp inside their range, at its boundary and just outside (where they
+// call the library).
 TEST(TrajectoryFilter, SmallAngleFunctionsMatchTheLibrary) {
   std::mt19937_64 rng(29);
   std::uniform_real_distribution<double> angle(0.0, 0.12);
   auto ulps = [](double value, double reference) {
     return std::abs(value - reference) / (std::numeric_limits<double>::epsilon() * std::max(std::abs(reference), 1e-300));
   };
-  double worst_atan2 = 0.0, worst_sin = 0.0, worst_cos = 0.0;
+  double worst_angle = 0.0, worst_sin = 0.0, worst_cos = 0.0;
   for (int c = 0; c < 200000; ++c) {
     const double x = c == 0 ? 0.0 : c == 1 ? internal::kSmallAngle : c == 2 ? 1e-300 : (c % 2 ? -1 : 1) * angle(rng);
     double s, co;
     internal::small_angle_sincos(x, &s, &co);
     if (x != 0.0) worst_sin = std::max(worst_sin, ulps(s, std::sin(x)));
     worst_cos = std::max(worst_cos, ulps(co, std::cos(x)));
-    const double theta = std::abs(x), r = 0.3 + 2.0 * angle(rng);  // any radius
-    const double a = internal::small_angle_atan2(r * std::sin(theta), r * std::cos(theta));
+    // The series against the library on the same inputs s = sin(theta), c = cos(theta).
+    const double theta = std::abs(x), sine = std::sin(theta);
+    const double between = internal::angle_between_unit_vectors(sine, sine * sine, std::cos(theta));
     if (theta == 0.0) {
-      ASSERT_EQ(a, 0.0);
+      ASSERT_EQ(between, 0.0);
     } else {
-      worst_atan2 = std::max(worst_atan2, ulps(a, std::atan2(r * std::sin(theta), r * std::cos(theta))));
+      worst_angle = std::max(worst_angle, ulps(between, std::asin(sine)));
     }
+    // And as the callers use it, on two unit vectors at angle theta (absolute error: the
+    // rounding of the vectors dominates at small angles).
+    const Vector3 a = wbm_test::random_direction(3, rng);
+    const Vector3 normal = a.cross(Vector3(wbm_test::random_direction(3, rng))).normalized();
+    const Vector3 b = Eigen::AngleAxisd(theta, normal) * a;
+    const Vector3 perpendicular = b - a.dot(b) * a;
+    const double s2 = perpendicular.squaredNorm();
+    ASSERT_NEAR(internal::angle_between_unit_vectors(std::sqrt(s2), s2, a.dot(b)), theta, 1e-15) << theta;
   }
-  std::cout << "worst error [ulp]: sin " << worst_sin << ", cos " << worst_cos << ", atan2 " << worst_atan2 << "\n";
+  std::cout << "worst error [ulp]: sin " << worst_sin << ", cos " << worst_cos << ", angle " << worst_angle << "\n";
   EXPECT_LE(worst_sin, 4.0);
   EXPECT_LE(worst_cos, 4.0);
-  EXPECT_LE(worst_atan2, 4.0);
-  EXPECT_EQ(internal::small_angle_atan2(0.0, -1.0), std::atan2(0.0, -1.0));  // outside: the library
-  EXPECT_EQ(internal::small_angle_atan2(1.0, 0.0), std::atan2(1.0, 0.0));
+  EXPECT_LE(worst_angle, 4.0);
+  // Outside the range: the library.
+  EXPECT_EQ(internal::angle_between_unit_vectors(0.0, 0.0, -1.0), std::atan2(0.0, -1.0));
+  EXPECT_EQ(internal::angle_between_unit_vectors(0.5, 0.25, std::sqrt(0.75)), std::atan2(0.5, std::sqrt(0.75)));
 }
 
 }  // namespace

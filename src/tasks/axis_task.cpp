@@ -18,8 +18,9 @@ Matrix3 AxisTask::sl_frame(const Vector3& a_g, const Vector3& a_t, const Vector3
   const Vector3 z = a_g.normalized();
   const Vector3 t = a_t.normalized();
   const Vector3 c = z.cross(t);
-  const double s = c.norm();
-  *phi = internal::small_angle_atan2(s, z.dot(t));  // the tracking error: mostly small
+  const double s2 = c.squaredNorm();
+  const double s = std::sqrt(s2);
+  *phi = internal::angle_between_unit_vectors(s, s2, z.dot(t));  // the tracking error: mostly small
   Vector3 y = s > 1e-12 ? Vector3(c * (1.0 / s)) : Vector3((fallback_y - fallback_y.dot(z) * z).normalized());
   Matrix3 R;
   R.col(0) = y.cross(z);
