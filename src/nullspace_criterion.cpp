@@ -61,6 +61,8 @@ CubicJointLimitCriterion::CubicJointLimitCriterion(const Model& model, double ba
   if (!(band >= 0.0 && band < 1.0))
     throw ConfigError("cubic joint-limit criterion: band must be in [0, 1), got " + std::to_string(band));
   setup(model, weights, center_, half_range_, weight_);
+  inverse_half_range_ = half_range_.cwiseInverse();
+  gradient_scale_ = 3.0 / std::pow(1.0 - band_, 3);
 }
 
 double CubicJointLimitCriterion::cost(const Eigen::Ref<const Eigen::VectorXd>& q) const {
@@ -74,11 +76,12 @@ double CubicJointLimitCriterion::cost(const Eigen::Ref<const Eigen::VectorXd>& q
 
 void CubicJointLimitCriterion::gradient(const Eigen::Ref<const Eigen::VectorXd>& q,
                                         Eigen::Ref<Eigen::VectorXd> grad) const {
-  const double scale = 3.0 / std::pow(1.0 - band_, 3);
   for (int i = 0; i < q.size(); ++i) {
-    const double d = (q[i] - center_[i]) / half_range_[i];
+    const double d = (q[i] - center_[i]) * inverse_half_range_[i];
     const double excess = std::abs(d) - band_;
-    grad[i] = excess > 0.0 ? weight_[i] * scale * excess * excess * std::copysign(1.0, d) / half_range_[i] : 0.0;
+    grad[i] = excess > 0.0
+                  ? weight_[i] * gradient_scale_ * excess * excess * std::copysign(1.0, d) * inverse_half_range_[i]
+                  : 0.0;
   }
 }
 

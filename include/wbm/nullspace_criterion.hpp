@@ -52,6 +52,8 @@ class CubicJointLimitCriterion : public NullSpaceCriterion {
 
  private:
   Eigen::VectorXd center_, half_range_, weight_;
+  Eigen::VectorXd inverse_half_range_;  // 1 / half_range_: no divisions per cycle
+  double gradient_scale_ = 0.0;         // 3 / (1 - band)^3
   double band_;
 };
 
