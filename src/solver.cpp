@@ -181,7 +181,7 @@ int WholeBodySolver::start_inverse_iteration(int m) {
 double WholeBodySolver::normalize_iterate(int m) {
   auto v = v_.head(m);
   const double growth = v.norm();
-  v /= growth;
+  v *= 1.0 / growth;
   return growth;
 }
 
