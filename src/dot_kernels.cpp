@@ -21,6 +21,35 @@ void weighted_gram_portable(const double* Jt, const double* Jwt, Eigen::Index ld
   }
 }
 
+void transpose_products_portable(const double* Jwt, Eigen::Index ld, int m, int n, const double* y1,
+                                 const double* y2, double* x1, double* x2) {
+  for (int c = 0; c < n; c += 4) {
+#if defined(__GNUC__)
+    Lanes t0 = {0.0, 0.0}, t1 = t0, u0 = t0, u1 = t0;
+    for (int i = 0; i < m; ++i) {
+      const double* column = Jwt + i * ld + c;
+      const Lanes a = load_lanes(column), b = load_lanes(column + 2);
+      const Lanes s1 = {y1[i], y1[i]}, s2 = {y2[i], y2[i]};
+      t0 += a * s1;
+      t1 += b * s1;
+      u0 += a * s2;
+      u1 += b * s2;
+    }
+    __builtin_memcpy(x1 + c, &t0, sizeof t0);
+    __builtin_memcpy(x1 + c + 2, &t1, sizeof t1);
+    __builtin_memcpy(x2 + c, &u0, sizeof u0);
+    __builtin_memcpy(x2 + c + 2, &u1, sizeof u1);
+#else
+    for (int k = c; k < c + 4; ++k) x1[k] = x2[k] = 0.0;
+    for (int i = 0; i < m; ++i)
+      for (int k = c; k < c + 4; ++k) {
+        x1[k] += Jwt[i * ld + k] * y1[i];
+        x2[k] += Jwt[i * ld + k] * y2[i];
+      }
+#endif
+  }
+}
+
 #if defined(__GNUC__) && defined(__x86_64__)
 
 namespace {
@@ -63,20 +92,43 @@ __attribute__((target("avx2,fma"))) void weighted_gram_avx2_kernel(const double*
   }
 }
 
+__attribute__((target("avx2,fma"))) void transpose_products_avx2_kernel(const double* Jwt, Eigen::Index ld, int m,
+                                                                        int n, const double* y1, const double* y2,
+                                                                        double* x1, double* x2) {
+  for (int c = 0; c < n; c += 4) {
+    Lanes4 t = {0.0, 0.0, 0.0, 0.0}, u = t;
+    for (int i = 0; i < m; ++i) {
+      const Lanes4 a = load4(Jwt + i * ld + c);
+      const Lanes4 s1 = {y1[i], y1[i], y1[i], y1[i]}, s2 = {y2[i], y2[i], y2[i], y2[i]};
+      t += a * s1;
+      u += a * s2;
+    }
+    __builtin_memcpy(x1 + c, &t, sizeof t);
+    __builtin_memcpy(x2 + c, &u, sizeof u);
+  }
+}
+
+bool cpu_has_avx2_fma() {
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+}
+
 }  // namespace
 
 GramKernel weighted_gram_avx2() { return &weighted_gram_avx2_kernel; }
-
-GramKernel select_weighted_gram() {
-  __builtin_cpu_init();
-  const bool avx2 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-  return avx2 ? &weighted_gram_avx2_kernel : &weighted_gram_portable;
+TransposeProductsKernel transpose_products_avx2() { return &transpose_products_avx2_kernel; }
+TransposeProductsKernel select_transpose_products() {
+  return cpu_has_avx2_fma() ? &transpose_products_avx2_kernel : &transpose_products_portable;
 }
+
+GramKernel select_weighted_gram() { return cpu_has_avx2_fma() ? &weighted_gram_avx2_kernel : &weighted_gram_portable; }
 
 #else
 
 GramKernel weighted_gram_avx2() { return nullptr; }
 GramKernel select_weighted_gram() { return &weighted_gram_portable; }
+TransposeProductsKernel transpose_products_avx2() { return nullptr; }
+TransposeProductsKernel select_transpose_products() { return &transpose_products_portable; }
 
 #endif
 

@@ -84,4 +84,15 @@ GramKernel weighted_gram_avx2();
 /// differ only in the order of the sums (a few ulp).
 GramKernel select_weighted_gram();
 
+/// x1 = Jwt y1 and x2 = Jwt y2 (n entries each, n a multiple of 4): Jwt is n x m
+/// column-major with leading dimension ld. Accumulates in registers, four rows at a time.
+using TransposeProductsKernel = void (*)(const double* Jwt, Eigen::Index ld, int m, int n, const double* y1,
+                                         const double* y2, double* x1, double* x2);
+void transpose_products_portable(const double* Jwt, Eigen::Index ld, int m, int n, const double* y1,
+                                 const double* y2, double* x1, double* x2);
+/// AVX2/FMA version, or nullptr where it is not compiled in.
+TransposeProductsKernel transpose_products_avx2();
+/// As select_weighted_gram().
+TransposeProductsKernel select_transpose_products();
+
 }  // namespace wbm::internal

@@ -23,7 +23,8 @@ void check(const SolverParameters& p) {
 }  // namespace
 
 WholeBodySolver::WholeBodySolver(const Model& model, int max_rows, const SolverParameters& parameters)
-    : model_(model), parameters_(parameters), max_rows_(max_rows), gram_(internal::select_weighted_gram()) {
+    : model_(model), parameters_(parameters), max_rows_(max_rows), gram_(internal::select_weighted_gram()),
+      transpose_products_(internal::select_transpose_products()) {
   check(parameters);
   if (max_rows < 0) throw ConfigError("solver: max_rows must be >= 0");
   const int n = model.num_dofs();
@@ -285,19 +286,10 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
     double* const rhs[2] = {y_.data(), u_.data()};
     solve_in_place<2>(m, rhs);
   }
-  // W^-1 J^T y and W^-1 J^T u over the free dofs (axpy over the task rows).
-  double* __restrict__ task = task_free_.data();
-  double* __restrict__ null = null_free_.data();
-  std::fill(task, task + np, 0.0);
-  std::fill(null, null + np, 0.0);
-  for (int i = 0; i < m; ++i) {
-    const double* __restrict__ column = Jwt + i * ld;
-    const double yi = y_[i], ui = u_[i];
-    for (int c = 0; c < np; ++c) {
-      task[c] += column[c] * yi;
-      null[c] += column[c] * ui;
-    }
-  }
+  // W^-1 J^T y and W^-1 J^T u over the free dofs.
+  const double* task = task_free_.data();
+  const double* null = null_free_.data();
+  transpose_products_(Jwt, ld, m, np, y_.data(), u_.data(), task_free_.data(), null_free_.data());
   out_.qdot_task.setZero();
   out_.qdot_null = g_;
   for (int c = 0; c < nf; ++c) {

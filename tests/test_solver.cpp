@@ -60,15 +60,19 @@ void randomize_targets(const Model& model, const Data& data, TaskStack& stack, s
   stack.target_rates().setZero();
 }
 
-// Both kernels of A = J W^-1 J^T (the one the solver picks for this CPU and the portable
-// one) agree with Eigen's product on random sizes and entries, including odd row counts.
+// Both versions of the solver's kernels (the one it picks for this CPU and the portable
+// one), A = J W^-1 J^T and W^-1 J^T y, agree with Eigen's products on random sizes and
+// entries, including odd row counts.
 TEST(Solver, GramKernelsMatchEigen) {
   std::mt19937_64 rng(41);
   std::vector<std::pair<std::string, wbm::internal::GramKernel>> kernels = {
       {"portable", &wbm::internal::weighted_gram_portable}};
-  if (wbm::internal::select_weighted_gram() != &wbm::internal::weighted_gram_portable)
+  std::vector<std::pair<std::string, wbm::internal::TransposeProductsKernel>> transpose_kernels = {
+      {"portable", &wbm::internal::transpose_products_portable}};
+  if (wbm::internal::select_weighted_gram() != &wbm::internal::weighted_gram_portable) {
     kernels.emplace_back("avx2", wbm::internal::weighted_gram_avx2());
-  else
+    transpose_kernels.emplace_back("avx2", wbm::internal::transpose_products_avx2());
+  } else
     std::cout << "this CPU has no AVX2/FMA: only the portable kernel is tested\n";
   std::uniform_real_distribution<double> uniform(-1.0, 1.0);
   auto random_matrix = [&](Eigen::Index rows, Eigen::Index cols) {
@@ -89,6 +93,17 @@ TEST(Solver, GramKernelsMatchEigen) {
       ASSERT_LE((lower - lower_expected).cwiseAbs().maxCoeff(), 1e-12 * (1.0 + expected.cwiseAbs().maxCoeff()))
           << name << " m " << m << " n " << n << " case " << c;
       ASSERT_TRUE(A.row(m).array().isNaN().all()) << name << ": wrote outside A, case " << c;
+    }
+    // x1 = Jwt y1, x2 = Jwt y2 over the n rows.
+    const Eigen::VectorXd y1 = random_matrix(m, 1), y2 = random_matrix(m, 1);
+    const Eigen::VectorXd x1_expected = Jwt.topRows(n) * y1, x2_expected = Jwt.topRows(n) * y2;
+    for (const auto& [name, kernel] : transpose_kernels) {
+      Eigen::VectorXd x1 = Eigen::VectorXd::Constant(n + 1, std::nan("")), x2 = x1;
+      kernel(Jwt.data(), ld, m, n, y1.data(), y2.data(), x1.data(), x2.data());
+      const double scale = 1.0 + Jwt.cwiseAbs().maxCoeff() * m;
+      ASSERT_LE((x1.head(n) - x1_expected).cwiseAbs().maxCoeff(), 1e-13 * scale) << name << " case " << c;
+      ASSERT_LE((x2.head(n) - x2_expected).cwiseAbs().maxCoeff(), 1e-13 * scale) << name << " case " << c;
+      ASSERT_TRUE(std::isnan(x1[n]) && std::isnan(x2[n])) << name << ": wrote past n, case " << c;
     }
   }
 }

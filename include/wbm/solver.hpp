@@ -124,6 +124,9 @@ class WholeBodySolver {
   int max_rows_;
   /// Kernel of A = J W^-1 J^T, chosen for this CPU at construction (AVX2/FMA or portable).
   void (*gram_)(const double* Jt, const double* Jwt, Eigen::Index ld, int m, int n, double* A, Eigen::Index lda);
+  /// Kernel of W^-1 J^T y and W^-1 J^T u, chosen likewise.
+  void (*transpose_products_)(const double* Jwt, Eigen::Index ld, int m, int n, const double* y1, const double* y2,
+                              double* x1, double* x2);
   Mask free_;                 // b_C, plus dofs frozen at their limits
   Eigen::VectorXd w_;         // W^-1 diagonal with frozen dofs zeroed
   Eigen::VectorXd range_sq_;  // r_i^2
