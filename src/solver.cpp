@@ -37,7 +37,6 @@ WholeBodySolver::WholeBodySolver(const Model& model, int max_rows, const SolverP
   Jt_.setZero(n + 3, m);  // spare rows: padding to a multiple of four free dofs
   Jwt_.setZero(n + 3, m);
   gradient_free_.setZero(n + 3);
-  w_free_.setZero(n + 3);
   zero_column_.setZero(m);
   task_free_.setZero(n + 3);
   null_free_.setZero(n + 3);
@@ -220,21 +219,18 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
   for (int c = 0; c < np; c += 2) {
     const double* column0 = c < nf ? J.data() + free_index_[c] * J.outerStride() : zero;
     const double* column1 = c + 1 < nf ? J.data() + free_index_[c + 1] * J.outerStride() : zero;
+    const double w0 = c < nf ? w_[free_index_[c]] : 0.0;
+    const double w1 = c + 1 < nf ? w_[free_index_[c + 1]] : 0.0;
     for (int i = 0; i < m; ++i) {
       double* entry = Jt + i * ld + c;
+      double* weighted = Jwt + i * ld + c;
       entry[0] = column0[i];
       entry[1] = column1[i];
+      weighted[0] = w0 * column0[i];
+      weighted[1] = w1 * column1[i];
     }
     gradient_free_[c] = c < nf ? gradient[free_index_[c]] : 0.0;
-    w_free_[c] = c < nf ? w_[free_index_[c]] : 0.0;
     gradient_free_[c + 1] = c + 1 < nf ? gradient[free_index_[c + 1]] : 0.0;
-    w_free_[c + 1] = c + 1 < nf ? w_[free_index_[c + 1]] : 0.0;
-  }
-  const double* __restrict__ w_free = w_free_.data();
-  for (int i = 0; i < m; ++i) {
-    const double* __restrict__ row = Jt + i * ld;
-    double* __restrict__ weighted = Jwt + i * ld;
-    for (int c = 0; c < np; ++c) weighted[c] = w_free[c] * row[c];
   }
   // A = J W^-1 J^T (lower triangle).
   gram_(Jt, Jwt, ld, m, np, A_.data(), A_.outerStride());

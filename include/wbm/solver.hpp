@@ -132,9 +132,9 @@ class WholeBodySolver {
   Eigen::VectorXd range_sq_;  // r_i^2
   std::vector<int> free_index_;  // the free dofs, in order
   // Over the free dofs, zero-padded to a multiple of four: J^T and W^-1 J^T ((n+3) x m),
-  // dH/dq, W^-1, W^-1 J^T y and W^-1 J^T u.
+  // dH/dq, W^-1 J^T y and W^-1 J^T u.
   Eigen::MatrixXd Jt_, Jwt_;
-  Eigen::VectorXd gradient_free_, w_free_, task_free_, null_free_;
+  Eigen::VectorXd gradient_free_, task_free_, null_free_;
   Eigen::VectorXd zero_column_;  // max rows zeros: the padding column
   Eigen::MatrixXd A_;   // J W^-1 J^T (lower triangle used)
   // A = L D L^T: L unit lower triangular and E = L D, below the diagonal (row-major).
