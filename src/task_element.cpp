@@ -60,6 +60,21 @@ Matrix3 RelativeFrame::reference_rotation(const Model& model, const Data& data) 
   return reference_ < 0 ? Matrix3::Identity() : frame_pose(model, data, reference_).R;
 }
 
+Vector3 RelativeFrame::position(const Model& model, const Data& data) const {
+  const Frame& f = model.frames()[frame_];
+  const Vector3 p_WF = data.X_WB[f.body] * f.X_BF.p;
+  if (reference_ < 0) return p_WF;
+  const Transform X_WR = frame_pose(model, data, reference_);
+  return X_WR.R.transpose() * (p_WF - X_WR.p);
+}
+
+Vector3 RelativeFrame::z_axis(const Model& model, const Data& data) const {
+  const Frame& f = model.frames()[frame_];
+  const Vector3 z_W = data.X_WB[f.body].R * f.X_BF.R.col(2);
+  if (reference_ < 0) return z_W;
+  return frame_pose(model, data, reference_).R.transpose() * z_W;
+}
+
 Transform RelativeFrame::pose(const Model& model, const Data& data) const {
   const Transform X_WF = frame_pose(model, data, frame_);
   if (reference_ < 0) return X_WF;

@@ -108,6 +108,25 @@ TEST(Solver, GramKernelsMatchEigen) {
   }
 }
 
+// The cheaper position() and z_axis() of a frame agree with its full pose, in the world and
+// relative to a reference frame, on every shipped model.
+TEST(RelativeFrame, PositionAndAxisAgreeWithThePose) {
+  for (const auto& entry : wbm_test::shipped_models()) {
+    const Model model = entry.load();
+    std::mt19937_64 rng(43);
+    Data data(model);
+    for (const std::string reference : {"", "heel"}) {
+      const RelativeFrame frame(model, entry.left_hand, reference);
+      for (int c = 0; c < 50; ++c) {
+        forward_kinematics(model, data, wbm_test::random_configuration(model, rng));
+        const Transform X = frame.pose(model, data);
+        ASSERT_LT((frame.position(model, data) - X.p).norm(), 1e-12) << entry.id << " " << reference;
+        ASSERT_LT((frame.z_axis(model, data) - X.R.col(2)).norm(), 1e-12) << entry.id << " " << reference;
+      }
+    }
+  }
+}
+
 TEST(Solver, PseudoInverseAndNullSpaceIdentities) {
   const Model model = make_paper_model();
   Data data(model);

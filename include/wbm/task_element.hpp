@@ -79,6 +79,10 @@ class RelativeFrame {
   Matrix3 reference_rotation(const Model& model, const Data& data) const;
   /// Position p_RF and rotation R_RF of the frame in the reference frame.
   Transform pose(const Model& model, const Data& data) const;
+  /// Position p_RF alone (pose().p without the rotation product).
+  Vector3 position(const Model& model, const Data& data) const;
+  /// z-axis of the frame in the reference, R_RF e_z (pose().R.col(2) without the full product).
+  Vector3 z_axis(const Model& model, const Data& data) const;
   /// Translational Jacobian (3 x nq) of the frame origin relative to the reference,
   /// expressed in the reference: d/dt p_RF.
   void translational_jacobian(const Model& model, const Data& data, Eigen::Ref<Eigen::MatrixXd> J);

@@ -11,7 +11,7 @@ AxisTask::AxisTask(const Model& model, std::string name, const std::string& fram
     : TaskElement(std::move(name), 2, 3, TargetKind::kDirection), frame_(model, frame, reference) {}
 
 void AxisTask::value(const Model& model, const Data& data, Eigen::Ref<Eigen::VectorXd> x) {
-  x = frame_.pose(model, data).R.col(2);
+  x = frame_.z_axis(model, data);
 }
 
 Matrix3 AxisTask::sl_frame(const Vector3& a_g, const Vector3& a_t, const Vector3& fallback_y, double* phi) {
