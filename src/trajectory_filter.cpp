@@ -20,7 +20,6 @@ TrajectoryFilter::TrajectoryFilter(TargetKind kind, int dim, const FilterParamet
   stages_.setZero(dim, parameters.order);
   value_.setZero(dim);
   velocity_.setZero(dim);
-  previous_.setZero(dim);
   if (kind == TargetKind::kDirection) {
     stages_.row(2).setOnes();
     value_[2] = 1.0;
@@ -112,7 +111,6 @@ void TrajectoryFilter::update(const Eigen::Ref<const Eigen::VectorXd>& target, d
   }
   const double fraction = fraction_;
   const double infinite = std::numeric_limits<double>::infinity();
-  previous_ = stages_.col(n - 1);
   if (kind_ == TargetKind::kDirection) {
     // The stages are unit vectors; so is the target from here on.
     const Vector3 unit_target = target.head<3>().normalized();
@@ -121,8 +119,16 @@ void TrajectoryFilter::update(const Eigen::Ref<const Eigen::VectorXd>& target, d
     move_towards(stages_.col(0), target, fraction, parameters_.max_speed * dt);
   }
   for (int k = 1; k < n; ++k) move_towards(stages_.col(k), stages_.col(k - 1), fraction, infinite);
-  value_ = stages_.col(n - 1);
-  velocity_ = (value_ - previous_) * (1.0 / dt);
+  // value_ is still the last stage before this update (every reset keeps them equal).
+  const double inverse_dt = 1.0 / dt;
+  if (value_.size() == 3) {  // positions and directions, without dynamic-size loops
+    const Vector3 last = stages_.col(n - 1).head<3>();
+    velocity_.head<3>() = (last - value_.head<3>()) * inverse_dt;
+    value_.head<3>() = last;
+  } else {
+    velocity_ = (stages_.col(n - 1) - value_) * inverse_dt;
+    value_ = stages_.col(n - 1);
+  }
 }
 
 }  // namespace wbm

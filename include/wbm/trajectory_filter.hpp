@@ -54,7 +54,7 @@ class TrajectoryFilter {
   TargetKind kind_;
   FilterParameters parameters_;
   Eigen::MatrixXd stages_;  // dim x order; the last column is the output
-  Eigen::VectorXd value_, velocity_, previous_;
+  Eigen::VectorXd value_, velocity_;  // value_ == the last stage between updates
   double fraction_dt_ = 0.0, fraction_ = 0.0;  // 1 - exp(-omega dt) for the last dt
 };
 
