@@ -155,6 +155,7 @@ void com_jacobian(const Model& model, const Data& data, Eigen::Ref<Eigen::Matrix
   const int nb = static_cast<int>(bodies.size());
   for (int b = 0; b < nb; ++b) {
     const Body& B = bodies[b];
+    if (B.dof < 0) continue;  // a welded body: no column
     const double m_sub = model.subtree_mass()[b];
     if (B.joint_type == JointType::kRevolute) {
       J.col(B.dof) += (B.multiplier * inv_mass) * data.a_W[b].cross(data.mc_W[b] - m_sub * data.X_WB[b].p);

@@ -638,8 +638,8 @@ TEST(Export, ShippedModelsRoundTrip) {
   }
 }
 
-TEST(Export, ModelWithWeldedBody) {
-  // Bodies without a dof (welded to their parent) are legal in a ModelBuilder model.
+/// A model with a body welded to its parent (no dof): legal in a ModelBuilder model.
+Model welded_model() {
   wbm::ModelBuilder builder("welded");
   wbm::Inertial trunk;
   trunk.mass = 10.0;
@@ -664,8 +664,47 @@ TEST(Export, ModelWithWeldedBody) {
   hand.X_PJ.R = wbm::rotation_from_rpy(0.1, 0.2, 0.3);
   hand.dof = -1;
   hand.inertial.mass = 0.5;
+  hand.inertial.com = {0.05, 0.02, -0.03};  // off its origin: a column for it would not be zero
   builder.add_body(hand);
-  const Model original = builder.build();
+  return builder.build();
+}
+
+// Jacobians of a model with a welded body: its bodies without a dof write no column (a
+// finite sentinel column on each side of J stays untouched; += on NaN would hide a write)
+// and the centre-of-mass Jacobian matches central differences.
+TEST(Kinematics, WeldedBodiesHaveNoJacobianColumn) {
+  const Model model = welded_model();
+  const int nq = model.num_dofs();
+  std::mt19937_64 rng(53);
+  Data data(model), plus(model), minus(model);
+  Eigen::MatrixXd padded(3, nq + 2);
+  for (int c = 0; c < 20; ++c) {
+    const Eigen::VectorXd q = wbm_test::random_configuration(model, rng);
+    forward_kinematics(model, data, q);
+    center_of_mass(model, data);
+    const double sentinel = 12345.0;
+    padded.setConstant(sentinel);
+    com_jacobian(model, data, padded.middleCols(1, nq));
+    ASSERT_TRUE((padded.col(0).array() == sentinel).all() && (padded.col(nq + 1).array() == sentinel).all()) << c;
+    const double h = 1e-6;
+    for (int d = 0; d < nq; ++d) {
+      Eigen::VectorXd qp = q, qm = q;
+      qp[d] += h;
+      qm[d] -= h;
+      forward_kinematics(model, plus, qp);
+      forward_kinematics(model, minus, qm);
+      const Vector3 fd = (center_of_mass(model, plus) - center_of_mass(model, minus)) / (2 * h);
+      ASSERT_LT((padded.col(1 + d) - fd).norm(), 1e-6) << "dof " << d << " case " << c;
+    }
+    padded.setConstant(sentinel);
+    point_jacobian(model, data, model.num_bodies() - 1, data.X_WB.back().p, padded.middleCols(1, nq));
+    ASSERT_TRUE((padded.col(0).array() == sentinel).all() && (padded.col(nq + 1).array() == sentinel).all()) << c;
+  }
+}
+
+TEST(Export, ModelWithWeldedBody) {
+  // Bodies without a dof (welded to their parent) are legal in a ModelBuilder model.
+  const Model original = welded_model();
   std::string xml;
   ASSERT_NO_THROW(xml = wbm::export_urdf(original));
   wbm::UrdfImportOptions options;

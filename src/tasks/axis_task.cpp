@@ -64,7 +64,8 @@ void AxisTask::evaluate(const Model& model, const Data& data, const Eigen::Ref<c
   if (frame_.reference() >= 0) add_projected_axes(model, data, model.frames()[frame_.reference()].body, P, -1.0, J);
   error << 0.0, phi;
   // Angular velocity of the moving unit target: w = a_t x d(a_t)/dt.
-  const Vector3 w = a_t.cross(Vector3(target_rate.head<3>())) * (1.0 / a_t.norm());
+  const double norm = a_t.norm();
+  const Vector3 w = a_t.cross(Vector3(target_rate.head<3>())) * (norm > 0.0 ? 1.0 / norm : 0.0);
   rate = R_sl.leftCols<2>().transpose() * w;
 }
 
