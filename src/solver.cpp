@@ -208,13 +208,12 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
     return flags;
   }
   // Task rows as contiguous columns over the free dofs: Jt = J^T and Jwt = W^-1 J^T
-  // (nf x m, padded with a zero to an even length for the two-lane products).
+  // (nf x m, zero-padded to np, a multiple of four, for the two- and four-lane kernels).
   const int np = (nf + 3) & ~3;
   const Eigen::Index ld = Jt_.outerStride();
   double* __restrict__ Jt = Jt_.data();
   double* __restrict__ Jwt = Jwt_.data();
-  // Two dofs at a time, so that each store writes two neighbouring entries of a task row;
-  // padded with zero columns to a multiple of four.
+  // Two dofs at a time, so that each store writes two neighbouring entries of a task row.
   const double* zero = zero_column_.data();
   for (int c = 0; c < np; c += 2) {
     const double* column0 = c < nf ? J.data() + free_index_[c] * J.outerStride() : zero;
