@@ -1,7 +1,7 @@
 #pragma once
 /// @file
 /// Internal (not installed): the small inner-product kernels of the solver, and the
-/// kernel of A = J W^-1 J^T with a CPU-dispatched AVX2/FMA variant.
+/// kernels of A = J W^-1 J^T and of W^-1 J^T y with CPU-dispatched AVX2/FMA variants.
 
 #include <Eigen/Core>
 
