@@ -142,9 +142,9 @@ int model_fk(ModelSource& source, const std::string& q_text, std::vector<std::st
   return 0;
 }
 
-int model_export(ModelSource& source, const std::string& output) {
+int model_export(ModelSource& source, const std::string& output, const wbm::UrdfExportOptions& options) {
   const wbm::Model model = source.load();
-  const std::string text = wbm::export_urdf(model);
+  const std::string text = wbm::export_urdf(model, options);
   if (output.empty() || output == "-") {
     std::cout << text;
     return 0;
@@ -214,6 +214,9 @@ int main(int argc, char** argv) {
   CLI::App* exp = model_cmd->add_subcommand("export", "write the model as URDF");
   export_source.add_to(*exp);
   exp->add_option("-o,--output", export_out, "output file (default: standard output)");
+  wbm::UrdfExportOptions export_options;
+  exp->add_flag("--virtual-dofs", export_options.virtual_dofs,
+                "write the whole tree: the virtual heel and upper-body dofs as joints below a 'world' link");
 
   std::vector<std::string> run_files;
   std::string run_out = "out";
@@ -227,7 +230,7 @@ int main(int argc, char** argv) {
   try {
     if (info->parsed()) return model_info(info_source, info_json);
     if (fk->parsed()) return model_fk(fk_source, q_text, fk_frames, fk_jacobian);
-    if (exp->parsed()) return model_export(export_source, export_out);
+    if (exp->parsed()) return model_export(export_source, export_out, export_options);
     if (run->parsed()) return run_scenarios(run_files, run_out, run_no_report);
   } catch (const wbm::Error& e) {
     std::cerr << "wbm: error: " << e.what() << "\n";

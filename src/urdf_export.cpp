@@ -26,19 +26,41 @@ void write_inertial(std::ostream& out, const Inertial& in) {
       << "\" izz=\"" << I(2, 2) << "\"/>\n    </inertial>\n";
 }
 
+/// `name`, or `name` with underscores appended until no body or frame has it.
+std::string unused_link_name(const Model& model, std::string name) {
+  auto taken = [&](const std::string& candidate) {
+    for (int b = 0; b < model.num_bodies(); ++b)
+      if (model.body(b).name == candidate) return true;
+    for (const Frame& f : model.frames())
+      if (f.name == candidate) return true;
+    return false;
+  };
+  while (taken(name)) name += "_";
+  return name;
+}
+
 }  // namespace
 
-std::string export_urdf(const Model& model) {
+std::string export_urdf(const Model& model, const UrdfExportOptions& options) {
   const VirtualDofs& v = model.virtual_dofs();
-  const int root = v.upper_body >= 0 ? v.upper_body : 0;
+  // Bodies after `root` are written with their joints; the root link has no joint. With the
+  // virtual dofs, the root link is the world and every body (from body 0) has a joint.
+  const bool whole_tree = options.virtual_dofs;
+  const int root = whole_tree ? -1 : (v.upper_body >= 0 ? v.upper_body : 0);
+  const std::string root_link = whole_tree ? unused_link_name(model, "world") : model.body(root).name;
+  auto link_name = [&](int body) { return body < 0 ? root_link : model.body(body).name; };
   std::ostringstream out;
   out << std::setprecision(17);
-  out << "<?xml version=\"1.0\"?>\n<!-- Written by wbm from model '" << model.name()
-      << "'. Import with root '" << model.body(root).name << "'. -->\n<robot name=\"" << model.name() << "\">\n";
-  out << "  <link name=\"" << model.body(root).name << "\">\n";
-  write_inertial(out, model.body(root).inertial);
+  out << "<?xml version=\"1.0\"?>\n<!-- Written by wbm from model '" << model.name() << "'. ";
+  if (whole_tree)
+    out << "Every dof is a joint, the virtual ones included; link '" << root_link << "' is the world frame. -->\n";
+  else
+    out << "Import with root '" << root_link << "'. -->\n";
+  out << "<robot name=\"" << model.name() << "\">\n";
+  out << "  <link name=\"" << root_link << "\">\n";
+  if (!whole_tree) write_inertial(out, model.body(root).inertial);
   out << "  </link>\n";
-  if (v.heel_body >= 0 && model.body(v.heel_body).inertial.mass > 0.0) {
+  if (!whole_tree && v.heel_body >= 0 && model.body(v.heel_body).inertial.mass > 0.0) {
     // The heel body's mass, welded below the upper body at the home pose.
     Data data(model);
     forward_kinematics(model, data, model.home());
@@ -46,7 +68,7 @@ std::string export_urdf(const Model& model) {
     out << "  <link name=\"heel_mass\">\n";
     write_inertial(out, model.body(v.heel_body).inertial);
     out << "  </link>\n  <joint name=\"heel_mass_joint\" type=\"fixed\">\n    <parent link=\""
-        << model.body(root).name << "\"/>\n    <child link=\"heel_mass\"/>\n    " << origin(X_UH) << "\n  </joint>\n";
+        << root_link << "\"/>\n    <child link=\"heel_mass\"/>\n    " << origin(X_UH) << "\n  </joint>\n";
   }
   std::vector<bool> driven(model.num_dofs(), false);
   for (int b = root + 1; b < model.num_bodies(); ++b) {
@@ -56,7 +78,7 @@ std::string export_urdf(const Model& model) {
     out << "  </link>\n";
     if (body.dof < 0) {  // welded to its parent
       out << "  <joint name=\"" << body.name << "_joint\" type=\"fixed\">\n    <parent link=\""
-          << model.body(body.parent).name << "\"/>\n    <child link=\"" << body.name << "\"/>\n    "
+          << link_name(body.parent) << "\"/>\n    <child link=\"" << body.name << "\"/>\n    "
           << origin(body.X_PJ) << "\n  </joint>\n";
       continue;
     }
@@ -66,7 +88,7 @@ std::string export_urdf(const Model& model) {
     driven[body.dof] = true;
     const char* type = dof.continuous ? "continuous" : to_string(body.joint_type);
     out << "  <joint name=\"" << (primary ? dof.name : body.name + "_joint") << "\" type=\"" << type
-        << "\">\n    <parent link=\"" << model.body(body.parent).name << "\"/>\n    <child link=\"" << body.name
+        << "\">\n    <parent link=\"" << link_name(body.parent) << "\"/>\n    <child link=\"" << body.name
         << "\"/>\n    " << origin(body.X_PJ) << "\n    <axis xyz=\"" << vec(body.axis) << "\"/>\n    <limit lower=\""
         << (dof.continuous ? 0.0 : dof.lower) << "\" upper=\"" << (dof.continuous ? 0.0 : dof.upper)
         << "\" effort=\"0\" velocity=\"" << dof.max_speed << "\"/>\n";

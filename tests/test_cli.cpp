@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 #include <string>
 
@@ -126,6 +127,26 @@ TEST(Cli, ExportThenImportWithRootAndHeight) {
   for (int r = 0; r < 3; ++r)
     EXPECT_NEAR(fk_back["frames"]["l_hand_ref"]["position"][r].get<double>(),
                 fk_original["frames"]["l_hand_ref"]["position"][r].get<double>(), 1e-9);
+  std::remove(file.c_str());
+}
+
+TEST(Cli, ExportWholeTreeWithVirtualDofs) {
+  // Every dof becomes a joint of the same name below a "world" link (KDL gets this tree in
+  // bench/; tests/test_kdl.cpp checks it against KDL); load_urdf refuses it, by name.
+  const std::string file = testing::TempDir() + "wbm_cli_paper_whole_" + std::to_string(getpid()) + ".urdf";
+  std::remove(file.c_str());
+  const CliRun exported = wbm_cli("model export --virtual-dofs -o '" + file + "'");
+  ASSERT_EQ(exported.status, 0) << exported.err;
+  std::ifstream in(file);
+  const std::string xml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(xml.find("<link name=\"world\">"), std::string::npos);
+  const wbm::Model model = wbm::make_paper_model();
+  for (const wbm::Dof& d : model.dofs())
+    EXPECT_NE(xml.find("<joint name=\"" + d.name + "\" type=\""), std::string::npos) << d.name;
+  EXPECT_NE(xml.find("<joint name=\"heel_yaw\" type=\"continuous\">"), std::string::npos);
+  const CliRun info = wbm_cli("model info '" + file + "' --root world");
+  EXPECT_NE(info.status, 0);
+  EXPECT_NE(info.err.find("duplicate dof 'heel_x'"), std::string::npos) << info.err;
   std::remove(file.c_str());
 }
 

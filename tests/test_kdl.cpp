@@ -6,6 +6,11 @@
 // Locked leg joints are at 0 in our model; mimic joints have multiplier * q_master + offset.
 // KDL ignores <mimic>: it gets those values in its joint array, and its mimic columns are
 // added (times the multiplier) into the master's column.
+//
+// Second suite: the whole tree, virtual dofs included, as wbm::export_urdf writes it with
+// virtual_dofs = true (the tree bench_wbm gives KDL). There every dof of ours is a KDL
+// joint, KDL's base is our world frame, and poses and all Jacobian columns are compared in
+// world coordinates, for the paper model and every shipped URDF.
 #include <cmath>
 #include <functional>
 #include <iostream>
@@ -26,6 +31,8 @@
 #include "shipped_models.hpp"
 #include "test_util.hpp"
 #include "wbm/kinematics.hpp"
+#include "wbm/paper_model.hpp"
+#include "wbm/urdf_import.hpp"
 
 namespace {
 
@@ -53,10 +60,9 @@ struct Mimic {
   double multiplier = 1.0, offset = 0.0;
 };
 
-std::map<std::string, Mimic> read_mimics(const std::string& path) {
+std::map<std::string, Mimic> read_mimics(const urdf::ModelInterfaceSharedPtr& urdf, const std::string& source) {
   std::map<std::string, Mimic> mimics;
-  const urdf::ModelInterfaceSharedPtr urdf = urdf::parseURDFFile(path);
-  if (!urdf) throw std::runtime_error("urdfdom cannot parse " + path);
+  if (!urdf) throw std::runtime_error("urdfdom cannot parse " + source);
   for (const auto& [name, joint] : urdf->joints_)
     if (joint->mimic) mimics[name] = {joint->mimic->joint_name, joint->mimic->multiplier, joint->mimic->offset};
   return mimics;
@@ -68,16 +74,12 @@ struct KdlJoint {
   unsigned q_nr = 0;
 };
 
-class KdlComparison : public testing::TestWithParam<ShippedModel> {};
-
-TEST_P(KdlComparison, PosesAndJacobiansMatchKdl) {
-  const ShippedModel& entry = GetParam();
-  const Model model = entry.load();
-  KDL::Tree tree;
-  if (!kdl_parser::treeFromFile(entry.path, tree))
-    GTEST_SKIP() << "kdl_parser could not parse " << entry.path << " (no KDL reference for model " << entry.id << ")";
-  const std::map<std::string, Mimic> mimics = read_mimics(entry.path);
-
+/// Compares poses and Jacobians of `model` with KDL's `tree` on random configurations.
+/// whole_tree = false: the tree is the URDF from the root link down; poses are compared
+/// relative to the root link and virtual-dof columns are skipped. true: the tree has every
+/// dof of ours and its base is our world frame; everything is compared in world coordinates.
+void compare_with_kdl(const std::string& id, const Model& model, const KDL::Tree& tree,
+                      const std::map<std::string, Mimic>& mimics, bool whole_tree) {
   const unsigned nj = tree.getNrOfJoints();
   std::vector<KdlJoint> joints;
   for (const auto& [segment_name, element] : tree.getSegments()) {
@@ -89,14 +91,17 @@ TEST_P(KdlComparison, PosesAndJacobiansMatchKdl) {
 
   // Frames to compare: our frames that are URDF links (KDL segments), on real bodies.
   const wbm::VirtualDofs& v = model.virtual_dofs();
-  const std::string root = model.body(v.upper_body).name;
+  const std::string root = whole_tree ? GetTreeElementSegment(tree.getRootSegment()->second).getName()
+                                      : model.body(v.upper_body).name;
   ASSERT_TRUE(tree.getSegments().count(root)) << "root link " << root << " is not a KDL segment";
   std::vector<int> frames;
   for (int f = 0; f < model.num_frames(); ++f)
-    if (model.frame(f).body >= v.upper_body && tree.getSegments().count(model.frame(f).name)) frames.push_back(f);
-  // Every URDF link except a cut-off world link is a frame of ours.
+    if ((whole_tree || model.frame(f).body >= v.upper_body) && tree.getSegments().count(model.frame(f).name))
+      frames.push_back(f);
+  // Every URDF link except a cut-off world link (or the exported world link) is a frame of ours.
   EXPECT_GE(frames.size() + 1, tree.getSegments().size()) << "frames missing in our model";
-  const int root_frame = model.frame_index(root);
+  const int root_frame = whole_tree ? -1 : model.frame_index(root);
+  auto compared = [&](int dof) { return whole_tree || model.dof(dof).role == wbm::DofRole::kJoint; };
 
   // The joint value KDL gets for a URDF joint, given our configuration q.
   std::function<double(const std::string&, const Eigen::VectorXd&)> joint_value =
@@ -122,17 +127,17 @@ TEST_P(KdlComparison, PosesAndJacobiansMatchKdl) {
       ++mapped;
     }
   }
-  // Every non-virtual dof of ours is a KDL joint.
-  int real_dofs = 0;
-  for (const wbm::Dof& d : model.dofs()) real_dofs += d.role == wbm::DofRole::kJoint;
+  // Every dof of ours (every non-virtual one unless whole_tree) is a KDL joint.
+  int expected_dofs = 0;
+  for (int i = 0; i < model.num_dofs(); ++i) expected_dofs += compared(i);
   std::vector<bool> dof_seen(model.num_dofs(), false);
   for (const auto& [dof, factor] : column_target)
     if (dof >= 0) dof_seen[dof] = true;
   for (int i = 0; i < model.num_dofs(); ++i)
-    if (model.dof(i).role == wbm::DofRole::kJoint) {
+    if (compared(i)) {
       EXPECT_TRUE(dof_seen[i]) << "dof " << model.dof(i).name << " not in KDL";
     }
-  EXPECT_GE(mapped, real_dofs);
+  EXPECT_GE(mapped, expected_dofs);
 
   KDL::TreeFkSolverPos_recursive kdl_fk(tree);
   KDL::TreeJntToJacSolver kdl_jac(tree);
@@ -148,7 +153,7 @@ TEST_P(KdlComparison, PosesAndJacobiansMatchKdl) {
     const Eigen::VectorXd q = wbm_test::random_configuration(model, rng);
     for (const KdlJoint& j : joints) kq(j.q_nr) = joint_value(j.name, q);
     wbm::forward_kinematics(model, data, q);
-    const Transform X_W_root = wbm::frame_pose(model, data, root_frame);
+    const Transform X_W_root = whole_tree ? Transform() : wbm::frame_pose(model, data, root_frame);
     KDL::Frame kdl_root;
     ASSERT_GE(kdl_fk.JntToCart(kq, kdl_root, root), 0);
     const Transform X_B_root = to_transform(kdl_root);
@@ -163,7 +168,7 @@ TEST_P(KdlComparison, PosesAndJacobiansMatchKdl) {
       const double pose_error = wbm_test::transform_distance(ours, theirs);
       worst_pose = std::max(worst_pose, pose_error);
       if (!(pose_error <= kTolerance) && ++failures <= kMaxReportedFailures)
-        ADD_FAILURE() << entry.id << ", configuration #" << c << ", frame " << name << ": pose differs from KDL by "
+        ADD_FAILURE() << id << ", configuration #" << c << ", frame " << name << ": pose differs from KDL by "
                       << pose_error << "\n  ours:\n" << ours.R << "\n  " << ours.p.transpose() << "\n  KDL:\n"
                       << theirs.R << "\n  " << theirs.p.transpose()
                       << "\n  q = " << wbm_test::describe_configuration(model, q);
@@ -184,11 +189,11 @@ TEST_P(KdlComparison, PosesAndJacobiansMatchKdl) {
       actual.topRows(3) = R_root_W * J.topRows(3);
       actual.bottomRows(3) = R_root_W * J.bottomRows(3);
       for (int i = 0; i < model.num_dofs(); ++i) {
-        if (model.dof(i).role != wbm::DofRole::kJoint) continue;  // virtual dofs: no KDL counterpart
+        if (!compared(i)) continue;  // virtual dofs of a URDF tree: no KDL counterpart
         const double err = (actual.col(i) - expected.col(i)).cwiseAbs().maxCoeff();
         worst_jacobian = std::max(worst_jacobian, err);
         if (!(err <= kTolerance) && ++failures <= kMaxReportedFailures)
-          ADD_FAILURE() << entry.id << ", configuration #" << c << ", frame " << name << ", column " << i << " ("
+          ADD_FAILURE() << id << ", configuration #" << c << ", frame " << name << ", column " << i << " ("
                         << model.dof(i).name << "): ours " << wbm_test::describe_vector(actual.col(i)) << " vs KDL "
                         << wbm_test::describe_vector(expected.col(i)) << ", error " << err
                         << "\n  q = " << wbm_test::describe_configuration(model, q);
@@ -196,14 +201,50 @@ TEST_P(KdlComparison, PosesAndJacobiansMatchKdl) {
     }
   }
   EXPECT_EQ(failures, 0);
-  RecordProperty("frames", static_cast<int>(frames.size()));
-  std::cout << "  " << entry.id << ": " << frames.size() << " frames x " << kConfigurations
+  testing::Test::RecordProperty("frames", static_cast<int>(frames.size()));
+  std::cout << "  " << id << ": " << frames.size() << " frames x " << kConfigurations
             << " configurations, largest pose difference " << worst_pose << ", largest Jacobian difference "
             << worst_jacobian << "\n";
 }
 
+class KdlComparison : public testing::TestWithParam<ShippedModel> {};
+
+TEST_P(KdlComparison, PosesAndJacobiansMatchKdl) {
+  const ShippedModel& entry = GetParam();
+  const Model model = entry.load();
+  KDL::Tree tree;
+  if (!kdl_parser::treeFromFile(entry.path, tree))
+    GTEST_SKIP() << "kdl_parser could not parse " << entry.path << " (no KDL reference for model " << entry.id << ")";
+  compare_with_kdl(entry.id, model, tree, read_mimics(urdf::parseURDFFile(entry.path), entry.path), false);
+}
+
+/// The whole tree as exported with the virtual dofs, parsed by kdl_parser.
+void compare_whole_tree_with_kdl(const std::string& id, const Model& model) {
+  wbm::UrdfExportOptions options;
+  options.virtual_dofs = true;
+  const std::string xml = wbm::export_urdf(model, options);
+  KDL::Tree tree;
+  ASSERT_TRUE(kdl_parser::treeFromString(xml, tree)) << id << ": kdl_parser rejects the whole-tree export";
+  EXPECT_EQ(GetTreeElementSegment(tree.getRootSegment()->second).getName(), "world");
+  int mimic_joints = 0;
+  for (int b = 0; b < model.num_bodies(); ++b) mimic_joints += model.body(b).dof >= 0;
+  mimic_joints -= model.num_dofs();  // bodies that share a dof with an earlier body
+  EXPECT_EQ(tree.getNrOfJoints(), static_cast<unsigned>(model.num_dofs() + mimic_joints)) << id;
+  compare_with_kdl(id + " (whole tree)", model, tree, read_mimics(urdf::parseURDF(xml), id + " export"), true);
+}
+
+class KdlWholeTree : public testing::TestWithParam<ShippedModel> {};
+
+TEST_P(KdlWholeTree, ExportWithVirtualDofsMatchesKdl) {
+  const ShippedModel& entry = GetParam();
+  compare_whole_tree_with_kdl(entry.id, entry.load());
+}
+
+TEST(KdlWholeTreePaper, ExportWithVirtualDofsMatchesKdl) { compare_whole_tree_with_kdl("paper", wbm::make_paper_model()); }
+
 std::string case_name(const testing::TestParamInfo<ShippedModel>& param) { return param.param.id; }
 
 INSTANTIATE_TEST_SUITE_P(ShippedUrdfs, KdlComparison, testing::ValuesIn(wbm_test::shipped_urdf_models()), case_name);
+INSTANTIATE_TEST_SUITE_P(ShippedUrdfs, KdlWholeTree, testing::ValuesIn(wbm_test::shipped_urdf_models()), case_name);
 
 }  // namespace

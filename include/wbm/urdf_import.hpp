@@ -45,10 +45,22 @@ Model load_urdf(const std::string& path, const UrdfImportOptions& options = {});
 Model parse_urdf(const std::string& xml, const UrdfImportOptions& options = {},
                  const std::string& source = "<string>");
 
-/// Writes a model as URDF: links and joints from the upper body down (the virtual heel
-/// and upper-body dofs are not URDF joints; import the file with root = the upper-body
-/// link and the same root height), named frames as fixed links, and the heel body's mass
-/// as a fixed link below the upper body at the home pose.
-std::string export_urdf(const Model& model);
+/// What export_urdf writes.
+struct UrdfExportOptions {
+  /// false (default): links and joints from the upper body down; the virtual heel and
+  /// upper-body dofs are not URDF joints (import the file with root = the upper-body link
+  /// and the same root height) and the heel body's mass becomes a fixed link below the
+  /// upper body at the home pose.
+  /// true: the whole tree, every dof of the model a URDF joint of the same name (the
+  /// virtual ones prismatic/revolute, heel_yaw continuous) below a fixed, massless root
+  /// link "world" (or "world_", ... if a body or frame has that name) whose frame is wbm's
+  /// world frame. For other tools on exactly wbm's tree (e.g. KDL in bench/), not for
+  /// load_urdf: its joints carry the names of the virtual dofs that load_urdf adds itself
+  /// (a "duplicate dof" ParseError).
+  bool virtual_dofs = false;
+};
+
+/// Writes a model as URDF (see UrdfExportOptions), named frames as fixed links.
+std::string export_urdf(const Model& model, const UrdfExportOptions& options = {});
 
 }  // namespace wbm
