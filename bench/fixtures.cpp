@@ -136,21 +136,53 @@ void start_motion(Endpoint& e) {
   e.v = KDL::Vector(v.x(), v.y(), v.z());
 }
 
+/// KDL's TreeIkSolverVel_wdls closed loop on one KDL tree.
+struct KdlTree {
+  std::string what;  ///< "whole tree" or "URDF tree", for messages
+  KDL::Tree tree;
+  std::vector<Endpoint> endpoints;  // sorted by name (the order of TreeIkSolverVel_wdls's rows)
+  std::unique_ptr<KDL::TreeFkSolverPos_recursive> fk;
+  std::unique_ptr<KDL::TreeJntToJacSolver> jac;
+  std::unique_ptr<KDL::TreeIkSolverVel_wdls> wdls;
+  KDL::Twists twists;
+  KDL::JntArray q, qdot, lower, upper;
+  std::vector<KDL::JntArray> configs;
+  std::vector<KDL::Jacobian> jacobians;
+  std::vector<int> of_dof;  // KDL q_nr of each wbm dof, -1 if none
+  double t = 0.0;
+
+  /// KDL joint values of a wbm configuration (joints without a wbm dof, e.g. locked legs, at 0).
+  KDL::JntArray to_kdl(const VectorXd& q_wbm) const {
+    KDL::JntArray k(tree.getNrOfJoints());
+    for (int i = 0; i < q_wbm.size(); ++i)
+      if (of_dof[i] >= 0) k(of_dof[i]) = q_wbm[i];
+    return k;
+  }
+  /// Endpoint FK, twists = gain x pose error, wdls, integration with clamping.
+  void cycle(double dt) {
+    for (Endpoint& e : endpoints) {
+      fk->JntToCart(q, e.pose, e.name);
+      *e.twist = KDL::diff(e.pose, e.target) * kKdlGain;
+    }
+    wdls->CartToJnt(q, twists, qdot);
+    for (unsigned i = 0; i < q.rows(); ++i) q(i) = std::clamp(q(i) + qdot(i) * dt, lower(i), upper(i));
+  }
+  void next_targets() {
+    t += kDt;
+    for (Endpoint& e : endpoints) e.move(t);
+  }
+};
+
 }  // namespace
 
 class Fixture {
  public:
   explicit Fixture(const FixtureSpec& s);
 
-  void kdl_cycle(double dt);
   void nso_cycle(double dt);
   void next_wbm_targets() {
     t_wbm += kDt;
     for (const Motion& m : motions) m.write(t_wbm, command.targets.segment(m.t0, m.n));
-  }
-  void next_kdl_targets() {
-    t_kdl += kDt;
-    for (Endpoint& e : endpoints) e.move(t_kdl);
   }
   void next_nso_target() {
     t_nso += kDt;
@@ -167,18 +199,9 @@ class Fixture {
   std::unique_ptr<wbm::Data> kin_data;
   std::unique_ptr<wbm::TaskStack> kin_stack;
   std::vector<VectorXd> configs;
-  // KDL tree
-  KDL::Tree tree;
-  std::vector<Endpoint> endpoints;  // sorted by name (the order of TreeIkSolverVel_wdls's rows)
-  std::unique_ptr<KDL::TreeFkSolverPos_recursive> fk;
-  std::unique_ptr<KDL::TreeJntToJacSolver> jac;
-  std::unique_ptr<KDL::TreeIkSolverVel_wdls> wdls;
-  KDL::Twists twists;
-  KDL::JntArray kq, kqdot, klower, kupper;
-  std::vector<KDL::JntArray> kconfigs;
-  std::vector<KDL::Jacobian> kjacobians;
-  std::vector<int> kdl_of_dof;  // KDL q_nr of each wbm dof, -1 if none
-  double t_kdl = 0.0;
+  // KDL trees: wbm's whole tree (every dof a joint, the virtual ones included: the same
+  // dofs as wbm) and the URDF as it is (from the root link down, legs included).
+  KdlTree kdl, kdl_urdf;
   // KDL arm chain
   std::string chain_root;
   KDL::Chain chain;
@@ -201,15 +224,14 @@ class Fixture {
 
  private:
   void build_wbm();
-  void build_kdl(const std::string& xml);
+  void build_kdl(KdlTree& k, const std::string& xml, bool whole_tree);
   void build_chain();
-  void check_kinematics_agree();
+  void check_kinematics_agree(KdlTree& k);
   void check_wbm();
-  void check_kdl();
+  void check_kdl(KdlTree& k);
   void check_nso();
   void record_states();
   VectorXd goal_configuration() const;
-  KDL::JntArray to_kdl(const VectorXd& q) const;
   void add_elements(const std::function<void(std::unique_ptr<wbm::TaskElement>)>& add) const;
 };
 
@@ -290,12 +312,17 @@ Fixture::Fixture(const FixtureSpec& s) : spec(s) {
     model = std::make_unique<wbm::Model>(wbm::load_urdf(spec.urdf, spec.options));
     xml = read_text(spec.urdf);
   }
+  wbm::UrdfExportOptions whole;
+  whole.virtual_dofs = true;
   build_wbm();
-  build_kdl(xml);
+  build_kdl(kdl, wbm::export_urdf(*model, whole), true);
+  build_kdl(kdl_urdf, xml, false);
   build_chain();
-  check_kinematics_agree();
+  check_kinematics_agree(kdl);
+  check_kinematics_agree(kdl_urdf);
   check_wbm();
-  check_kdl();
+  check_kdl(kdl);
+  check_kdl(kdl_urdf);
   check_nso();
 }
 
@@ -357,40 +384,46 @@ void Fixture::build_wbm() {
   }
 }
 
-KDL::JntArray Fixture::to_kdl(const VectorXd& q) const {
-  KDL::JntArray k(tree.getNrOfJoints());  // joints without a wbm dof (locked legs) stay at 0
-  for (int i = 0; i < q.size(); ++i)
-    if (kdl_of_dof[i] >= 0) k(kdl_of_dof[i]) = q[i];
-  return k;
-}
-
-void Fixture::build_kdl(const std::string& xml) {
-  if (!kdl_parser::treeFromString(xml, tree)) throw std::runtime_error(spec.id + ": kdl_parser rejected the URDF");
-  const unsigned nj = tree.getNrOfJoints();
+void Fixture::build_kdl(KdlTree& k, const std::string& xml, bool whole_tree) {
+  k.what = whole_tree ? "whole tree" : "URDF tree";
+  if (!kdl_parser::treeFromString(xml, k.tree))
+    throw std::runtime_error(spec.id + ": kdl_parser rejected the URDF (" + k.what + ")");
+  const unsigned nj = k.tree.getNrOfJoints();
   std::map<std::string, int> q_nr;
-  for (const auto& [name, element] : tree.getSegments()) {
+  for (const auto& [name, element] : k.tree.getSegments()) {
     const KDL::Joint& joint = GetTreeElementSegment(element).getJoint();
     if (joint.getType() != KDL::Joint::None) q_nr[joint.getName()] = static_cast<int>(GetTreeElementQNr(element));
   }
-  kdl_of_dof.assign(model->num_dofs(), -1);
-  klower.resize(nj);
-  kupper.resize(nj);
+  k.of_dof.assign(model->num_dofs(), -1);
+  k.lower.resize(nj);
+  k.upper.resize(nj);
   for (unsigned i = 0; i < nj; ++i) {
-    klower(i) = -std::numeric_limits<double>::infinity();
-    kupper(i) = std::numeric_limits<double>::infinity();
+    k.lower(i) = -std::numeric_limits<double>::infinity();
+    k.upper(i) = std::numeric_limits<double>::infinity();
   }
+  // Joint-space weights. Whole tree: as wbm's W^-1 = diag(work_range^2) (sec. IV.C), i.e.
+  // KDL's Wq = diag(work_range), and 0 for the frozen heel dofs (wdls then moves them
+  // exactly zero, as wbm's b_C does). URDF tree: identity (KDL's default; it has no heel).
+  Eigen::MatrixXd Wq = Eigen::MatrixXd::Identity(nj, nj);
   for (int i = 0; i < model->num_dofs(); ++i) {
-    const auto it = q_nr.find(model->dof(i).name);
-    if (it == q_nr.end()) continue;
-    kdl_of_dof[i] = it->second;
-    klower(it->second) = model->dof(i).lower;
-    kupper(it->second) = model->dof(i).upper;
+    const wbm::Dof& dof = model->dof(i);
+    const auto it = q_nr.find(dof.name);
+    if (it == q_nr.end()) {
+      if (whole_tree) throw std::runtime_error(spec.id + ": dof " + dof.name + " is not a joint of KDL's whole tree");
+      continue;
+    }
+    k.of_dof[i] = it->second;
+    if (!dof.continuous) {
+      k.lower(it->second) = dof.lower;
+      k.upper(it->second) = dof.upper;
+    }
+    if (whole_tree) Wq(it->second, it->second) = command.free_dofs[i] ? dof.work_range : 0.0;
   }
-  for (const VectorXd& q : configs) kconfigs.push_back(to_kdl(q));
+  for (const VectorXd& q : configs) k.configs.push_back(k.to_kdl(q));
 
   std::map<std::string, Endpoint> by_name;  // sorted, as TreeIkSolverVel_wdls orders its rows
   auto add = [&](const std::string& name, bool position, bool orientation) {
-    if (tree.getSegments().count(name) == 0) throw std::runtime_error(spec.id + ": no KDL segment " + name);
+    if (k.tree.getSegments().count(name) == 0) throw std::runtime_error(spec.id + ": no KDL segment " + name);
     Endpoint& e = by_name[name];
     e.name = name;
     e.position |= position;
@@ -401,31 +434,33 @@ void Fixture::build_kdl(const std::string& xml) {
   if (spec.head_axis) add(spec.head, false, true);
   std::vector<std::string> names;
   for (auto& [name, e] : by_name) {
-    endpoints.push_back(e);
+    k.endpoints.push_back(e);
     names.push_back(name);
   }
-  fk = std::make_unique<KDL::TreeFkSolverPos_recursive>(tree);
-  jac = std::make_unique<KDL::TreeJntToJacSolver>(tree);
-  wdls = std::make_unique<KDL::TreeIkSolverVel_wdls>(tree, names);
-  wdls->setLambda(kKdlLambda);
+  k.fk = std::make_unique<KDL::TreeFkSolverPos_recursive>(k.tree);
+  k.jac = std::make_unique<KDL::TreeJntToJacSolver>(k.tree);
+  k.wdls = std::make_unique<KDL::TreeIkSolverVel_wdls>(k.tree, names);
+  k.wdls->setLambda(kKdlLambda);
+  k.wdls->setWeightJS(Wq);
   // Task-space weights: rows that stand for no wbm row (orientation of a position-only
   // endpoint, position of a view axis) get weight 0. The matrices keep 6 rows per endpoint.
-  const int rows = 6 * static_cast<int>(endpoints.size());
+  const int rows = 6 * static_cast<int>(k.endpoints.size());
   Eigen::MatrixXd Wy = Eigen::MatrixXd::Zero(rows, rows);
-  for (int k = 0; k < static_cast<int>(endpoints.size()); ++k)
-    for (int r = 0; r < 6; ++r) Wy(6 * k + r, 6 * k + r) = (r < 3 ? endpoints[k].position : endpoints[k].orientation);
-  wdls->setWeightTS(Wy);
-  for (Endpoint& e : endpoints) {
-    twists[e.name] = KDL::Twist::Zero();
-    kjacobians.emplace_back(nj);
+  for (int e = 0; e < static_cast<int>(k.endpoints.size()); ++e)
+    for (int r = 0; r < 6; ++r) Wy(6 * e + r, 6 * e + r) = (r < 3 ? k.endpoints[e].position : k.endpoints[e].orientation);
+  k.wdls->setWeightTS(Wy);
+  for (Endpoint& e : k.endpoints) {
+    k.twists[e.name] = KDL::Twist::Zero();
+    k.jacobians.emplace_back(nj);
   }
-  for (Endpoint& e : endpoints) e.twist = &twists.at(e.name);
-  kq = to_kdl(model->home());
-  kqdot.resize(nj);
+  for (Endpoint& e : k.endpoints) e.twist = &k.twists.at(e.name);
+  k.q = k.to_kdl(model->home());
+  k.qdot.resize(nj);
 }
 
 void Fixture::build_chain() {
   // Arm chain: from the common ancestor of both hands (the torso/upper body) to the right hand.
+  const KDL::Tree& tree = kdl_urdf.tree;
   const KDL::SegmentMap& segments = tree.getSegments();
   std::set<std::string> left_ancestors;
   for (auto it = segments.find(spec.left_hand); it != segments.end();) {
@@ -477,24 +512,25 @@ void Fixture::build_chain() {
   chain_end.orientation = spec.right_axis;
 }
 
-void Fixture::check_kinematics_agree() {
-  // Both libraries agree on every endpoint pose relative to the root link.
+void Fixture::check_kinematics_agree(KdlTree& kt) {
+  // Both libraries agree on every endpoint pose relative to the upper body (the URDF's root link).
   const std::string root = model->body(model->virtual_dofs().upper_body).name;
   for (int k = 0; k < 4; ++k) {
     wbm::forward_kinematics(*model, *kin_data, configs[k]);
     const wbm::Transform X_root = wbm::frame_pose(*model, *kin_data, model->frame_index(root));
     KDL::Frame kdl_root;
-    if (fk->JntToCart(kconfigs[k], kdl_root, root) < 0) throw std::runtime_error(spec.id + ": KDL has no root " + root);
-    for (const Endpoint& e : endpoints) {
+    if (kt.fk->JntToCart(kt.configs[k], kdl_root, root) < 0)
+      throw std::runtime_error(spec.id + ": KDL's " + kt.what + " has no link " + root);
+    for (const Endpoint& e : kt.endpoints) {
       const wbm::Transform ours = X_root.inverse() * wbm::frame_pose(*model, *kin_data, model->frame_index(e.name));
       KDL::Frame pose;
-      fk->JntToCart(kconfigs[k], pose, e.name);
+      kt.fk->JntToCart(kt.configs[k], pose, e.name);
       const KDL::Frame theirs = kdl_root.Inverse() * pose;
       double rot = 0.0;
       for (int r = 0; r < 3; ++r)
         for (int c = 0; c < 3; ++c) rot = std::max(rot, std::abs(ours.R(r, c) - theirs.M(r, c)));
       if ((ours.p - to_eigen(theirs.p)).norm() > 1e-9 || rot > 1e-9)
-        throw std::runtime_error(spec.id + ": wbm and KDL disagree on the pose of " + e.name);
+        throw std::runtime_error(spec.id + ": wbm and KDL (" + kt.what + ") disagree on the pose of " + e.name);
     }
   }
 }
@@ -584,9 +620,10 @@ void Fixture::check_wbm() {
   record_states();
   note(spec.id + ": wbm " + std::to_string(model->num_dofs()) + " dofs (heel frozen: " +
        std::to_string(model->num_dofs() - 3) + " free), " + std::to_string(controller->tasks().num_rows()) +
-       " rows; KDL tree " + std::to_string(tree.getNrOfJoints()) + " joints, wdls " +
-       std::to_string(6 * endpoints.size()) + " rows (" + std::to_string(endpoints.size()) +
-       " endpoints x 6), arm chain " + chain_root + " -> " + spec.right_hand + " " +
+       " rows; KDL whole tree " + std::to_string(kdl.tree.getNrOfJoints()) + " joints, URDF tree " +
+       std::to_string(kdl_urdf.tree.getNrOfJoints()) + " joints, wdls " + std::to_string(6 * kdl.endpoints.size()) +
+       " rows (" + std::to_string(kdl.endpoints.size()) + " endpoints x 6), arm chain " + chain_root + " -> " +
+       spec.right_hand + " " +
        std::to_string(chain.getNrOfJoints()) + " joints x 6 rows");
 }
 
@@ -621,33 +658,41 @@ void Fixture::record_states() {
   }
 }
 
-void Fixture::check_kdl() {
+void Fixture::check_kdl(KdlTree& k) {
   // wdls closed loop converges to the endpoint poses of the same reachable configuration.
-  const KDL::JntArray goal = to_kdl(goal_configuration());
-  for (Endpoint& e : endpoints) {
-    fk->JntToCart(goal, e.base, e.name);
+  const KDL::JntArray goal = k.to_kdl(goal_configuration());
+  for (Endpoint& e : k.endpoints) {
+    k.fk->JntToCart(goal, e.base, e.name);
     e.target = e.base;
   }
-  for (int k = 0; k < 4000; ++k) kdl_cycle(kDt);
+  const KDL::JntArray home = k.q;
+  for (int c = 0; c < 4000; ++c) k.cycle(kDt);
   double worst_position = 0.0, worst_angle = 0.0;
-  for (Endpoint& e : endpoints) {
-    fk->JntToCart(kq, e.pose, e.name);
+  for (Endpoint& e : k.endpoints) {
+    k.fk->JntToCart(k.q, e.pose, e.name);
     const KDL::Twist d = KDL::diff(e.pose, e.target);
     if (e.position) worst_position = std::max(worst_position, d.vel.Norm());
     if (e.orientation) worst_angle = std::max(worst_angle, d.rot.Norm());
   }
-  note(spec.id + ": KDL wdls closed loop (gain 10/s, lambda 0.01) converges in 4 s: error " +
+  // Frozen dofs (weight 0 on the whole tree) stayed exactly where they were.
+  for (int i = 0; i < model->num_dofs(); ++i)
+    if (!command.free_dofs[i] && k.of_dof[i] >= 0 && k.q(k.of_dof[i]) != home(k.of_dof[i]))
+      throw std::runtime_error(spec.id + ": KDL wdls (" + k.what + ") moved the frozen dof " + model->dof(i).name);
+  note(spec.id + ": KDL wdls on the " + k.what + " (" + std::to_string(k.tree.getNrOfJoints()) +
+       " joints), closed loop (gain 10/s, lambda 0.01) converges in 4 s: error " +
        fmt("%.2g m / %.2g rad", worst_position, worst_angle));
-  if (!(worst_position < 2e-3 && worst_angle < 2e-2)) throw std::runtime_error(spec.id + ": KDL wdls did not converge");
-  for (Endpoint& e : endpoints) start_motion(e);
-  const KDL::JntArray start = kq;
-  for (int k = 0; k < 1000; ++k) {
-    next_kdl_targets();
-    kdl_cycle(kDt);
+  if (!(worst_position < 2e-3 && worst_angle < 2e-2))
+    throw std::runtime_error(spec.id + ": KDL wdls (" + k.what + ") did not converge");
+  for (Endpoint& e : k.endpoints) start_motion(e);
+  const KDL::JntArray start = k.q;
+  for (int c = 0; c < 1000; ++c) {
+    k.next_targets();
+    k.cycle(kDt);
   }
   double moved = 0.0;
-  for (unsigned i = 0; i < kq.rows(); ++i) moved += (kq(i) - start(i)) * (kq(i) - start(i));
-  if (!(std::sqrt(moved) > 1e-3) || !kq.data.allFinite()) throw std::runtime_error(spec.id + ": KDL wdls does not move");
+  for (unsigned i = 0; i < k.q.rows(); ++i) moved += (k.q(i) - start(i)) * (k.q(i) - start(i));
+  if (!(std::sqrt(moved) > 1e-3) || !k.q.data.allFinite())
+    throw std::runtime_error(spec.id + ": KDL wdls (" + k.what + ") does not move");
 }
 
 void Fixture::check_nso() {
@@ -668,15 +713,6 @@ void Fixture::check_nso() {
 
 // ---------------------------------------------------------------------------------------
 // KDL cycles
-
-void Fixture::kdl_cycle(double dt) {
-  for (Endpoint& e : endpoints) {
-    fk->JntToCart(kq, e.pose, e.name);
-    *e.twist = KDL::diff(e.pose, e.target) * kKdlGain;
-  }
-  wdls->CartToJnt(kq, twists, kqdot);
-  for (unsigned i = 0; i < kq.rows(); ++i) kq(i) = std::clamp(kq(i) + kqdot(i) * dt, klower(i), kupper(i));
-}
 
 void Fixture::nso_cycle(double dt) {
   chain_fk->JntToCart(cq, chain_end.pose);
@@ -733,19 +769,20 @@ void bm_wbm_kinematics(benchmark::State& state, const FixtureSpec* spec) {
 void bm_kdl_kinematics(benchmark::State& state, const FixtureSpec* spec) {
   Fixture* f = get(state, spec);
   if (f == nullptr) return;
+  KdlTree& kt = f->kdl;
   std::size_t k = 0;
   timed_loop(
       state, [&] { ++k; },
       [&] {
-        const KDL::JntArray& q = f->kconfigs[k % kConfigurations];
-        for (std::size_t e = 0; e < f->endpoints.size(); ++e) {
-          f->fk->JntToCart(q, f->endpoints[e].pose, f->endpoints[e].name);
-          f->jac->JntToJac(q, f->kjacobians[e], f->endpoints[e].name);
+        const KDL::JntArray& q = kt.configs[k % kConfigurations];
+        for (std::size_t e = 0; e < kt.endpoints.size(); ++e) {
+          kt.fk->JntToCart(q, kt.endpoints[e].pose, kt.endpoints[e].name);
+          kt.jac->JntToJac(q, kt.jacobians[e], kt.endpoints[e].name);
         }
         benchmark::ClobberMemory();
       });
-  state.counters["rows"] = 6.0 * static_cast<double>(f->endpoints.size());
-  state.counters["dofs"] = f->tree.getNrOfJoints();
+  state.counters["rows"] = 6.0 * static_cast<double>(kt.endpoints.size());
+  state.counters["dofs"] = kt.tree.getNrOfJoints();
 }
 
 const char* part_name(Part part) {
@@ -857,14 +894,24 @@ void bm_wbm_cycle(benchmark::State& state, const FixtureSpec* spec) {
   state.counters["dofs"] = f->model->num_dofs();
 }
 
-void bm_kdl_wdls_cycle(benchmark::State& state, const FixtureSpec* spec) {
-  Fixture* f = get(state, spec);
-  if (f == nullptr) return;
+namespace {
+
+void kdl_wdls_cycle(benchmark::State& state, KdlTree& k) {
   timed_loop(
-      state, [&] { f->next_kdl_targets(); }, [&] { f->kdl_cycle(kDt); });
-  if (!f->kq.data.allFinite()) state.SkipWithError("KDL wdls produced NaN");
-  state.counters["rows"] = 6.0 * static_cast<double>(f->endpoints.size());
-  state.counters["dofs"] = f->tree.getNrOfJoints();
+      state, [&] { k.next_targets(); }, [&] { k.cycle(kDt); });
+  if (!k.q.data.allFinite()) state.SkipWithError("KDL wdls produced NaN");
+  state.counters["rows"] = 6.0 * static_cast<double>(k.endpoints.size());
+  state.counters["dofs"] = k.tree.getNrOfJoints();
+}
+
+}  // namespace
+
+void bm_kdl_wdls_cycle(benchmark::State& state, const FixtureSpec* spec) {
+  if (Fixture* f = get(state, spec)) kdl_wdls_cycle(state, f->kdl);
+}
+
+void bm_kdl_wdls_urdf_cycle(benchmark::State& state, const FixtureSpec* spec) {
+  if (Fixture* f = get(state, spec)) kdl_wdls_cycle(state, f->kdl_urdf);
 }
 
 void bm_kdl_arm_cycle(benchmark::State& state, const FixtureSpec* spec) {

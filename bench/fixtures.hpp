@@ -17,7 +17,8 @@ namespace wbm_bench {
 struct FixtureSpec {
   std::string id;           ///< Benchmark name prefix, e.g. "paper_r12".
   std::string description;  ///< One line for the notes.
-  /// URDF file; empty: the built-in paper model (KDL then reads wbm::export_urdf of it).
+  /// URDF file; empty: the built-in paper model (its "URDF tree" for KDL is then
+  /// wbm::export_urdf of it, from the upper body down).
   std::string urdf;
   wbm::UrdfImportOptions options;
   std::string left_hand, right_hand, head;  ///< Frames (also KDL segments).
@@ -44,10 +45,13 @@ void bm_wbm_kinematics(benchmark::State& state, const FixtureSpec* spec);
 void bm_kdl_kinematics(benchmark::State& state, const FixtureSpec* spec);
 /// (b) one wbm::Controller::update() with moving targets.
 void bm_wbm_cycle(benchmark::State& state, const FixtureSpec* spec);
-/// (c) KDL closed-loop cycle on the same tree: endpoint FK, twists, TreeIkSolverVel_wdls,
-/// integration; and ChainIkSolverVel_pinv_nso on the right arm chain (plain pinv for arms
-/// with fewer than 6 joints, which pinv_nso does not support).
+/// (c) KDL closed-loop cycle: endpoint FK, twists, TreeIkSolverVel_wdls, integration, on the
+/// same tree as wbm (wbm::export_urdf with the virtual dofs: the same dofs, joint weights as
+/// wbm's W, heel frozen) and on the URDF's own tree (no virtual dofs, legs included);
+/// and ChainIkSolverVel_pinv_nso on the right arm chain (plain pinv for arms with fewer
+/// than 6 joints, which pinv_nso does not support).
 void bm_kdl_wdls_cycle(benchmark::State& state, const FixtureSpec* spec);
+void bm_kdl_wdls_urdf_cycle(benchmark::State& state, const FixtureSpec* spec);
 void bm_kdl_arm_cycle(benchmark::State& state, const FixtureSpec* spec);
 
 /// Stages of one controller cycle, timed alone with the library's public functions on
