@@ -48,6 +48,26 @@ inline void four_dot_products(const double* a0, const double* a1, const double* 
   }
 }
 
+/// out[i * ld] = {r0 a[i], r1 b[i]} for i < m: two columns (a, b) of a column-major matrix,
+/// scaled, as two neighbouring entries of each of m rows (a 2 x 2 transpose per two rows).
+inline void scaled_transpose_two_columns(const double* a, const double* b, double r0, double r1, int m, double* out,
+                                         Eigen::Index ld) {
+  int i = 0;
+#if defined(__GNUC__)
+  const Lanes s0 = {r0, r0}, s1 = {r1, r1};
+  for (; i + 1 < m; i += 2) {
+    const Lanes x = load_lanes(a + i) * s0, y = load_lanes(b + i) * s1;
+    const Lanes row0 = __builtin_shufflevector(x, y, 0, 2), row1 = __builtin_shufflevector(x, y, 1, 3);
+    __builtin_memcpy(out + i * ld, &row0, sizeof row0);
+    __builtin_memcpy(out + (i + 1) * ld, &row1, sizeof row1);
+  }
+#endif
+  for (; i < m; ++i) {
+    out[i * ld] = r0 * a[i];
+    out[i * ld + 1] = r1 * b[i];
+  }
+}
+
 /// Two inner products of n entries: s = {b0.a, b1.a}.
 inline void two_dot_products(const double* a, const double* b0, const double* b1, int n, double s[2]) {
   int k = 0;

@@ -31,11 +31,14 @@ WholeBodySolver::WholeBodySolver(const Model& model, int max_rows, const SolverP
   const int m = std::max(max_rows, 1);
   free_.setConstant(n, true);
   w_.setZero(n);
+  range_.resize(n);
   range_sq_.resize(n);
-  for (int i = 0; i < n; ++i) range_sq_[i] = model.dof(i).work_range * model.dof(i).work_range;
+  for (int i = 0; i < n; ++i) {
+    range_[i] = model.dof(i).work_range;
+    range_sq_[i] = range_[i] * range_[i];
+  }
   free_index_.assign(n, 0);
-  Jt_.setZero(n + 3, m);  // spare rows: padding to a multiple of four free dofs
-  Jwt_.setZero(n + 3, m);
+  H_.setZero(n + 3, m);  // spare rows: padding to a multiple of four free dofs
   gradient_free_.setZero(n + 3);
   zero_column_.setZero(m);
   task_free_.setZero(n + 3);
@@ -207,37 +210,29 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
     out_.min_singular_value = std::numeric_limits<double>::infinity();
     return flags;
   }
-  // Task rows as contiguous columns over the free dofs: Jt = J^T and Jwt = W^-1 J^T
-  // (nf x m, zero-padded to np, a multiple of four, for the two- and four-lane kernels).
+  // Task rows as contiguous columns over the free dofs: H = W^-1/2 J^T (nf x m, zero-padded
+  // to np, a multiple of four, for the two- and four-lane kernels). One scaled copy serves
+  // all products: A = J W^-1 J^T = H^T H, J W^-1 g = H^T (W^-1/2 g), W^-1 J^T y = W^-1/2 H y.
   const int np = (nf + 3) & ~3;
-  const Eigen::Index ld = Jt_.outerStride();
-  double* __restrict__ Jt = Jt_.data();
-  double* __restrict__ Jwt = Jwt_.data();
-  // Two dofs at a time, so that each store writes two neighbouring entries of a task row.
+  const Eigen::Index ld = H_.outerStride();
+  double* __restrict__ H = H_.data();
   const double* zero = zero_column_.data();
   for (int c = 0; c < np; c += 2) {
-    const double* column0 = c < nf ? J.data() + free_index_[c] * J.outerStride() : zero;
-    const double* column1 = c + 1 < nf ? J.data() + free_index_[c + 1] * J.outerStride() : zero;
-    const double w0 = c < nf ? w_[free_index_[c]] : 0.0;
-    const double w1 = c + 1 < nf ? w_[free_index_[c + 1]] : 0.0;
-    for (int i = 0; i < m; ++i) {
-      double* entry = Jt + i * ld + c;
-      double* weighted = Jwt + i * ld + c;
-      entry[0] = column0[i];
-      entry[1] = column1[i];
-      weighted[0] = w0 * column0[i];
-      weighted[1] = w1 * column1[i];
-    }
-    gradient_free_[c] = c < nf ? gradient[free_index_[c]] : 0.0;
-    gradient_free_[c + 1] = c + 1 < nf ? gradient[free_index_[c + 1]] : 0.0;
+    const int k0 = c < nf ? free_index_[c] : -1;
+    const int k1 = c + 1 < nf ? free_index_[c + 1] : -1;
+    internal::scaled_transpose_two_columns(k0 >= 0 ? J.data() + k0 * J.outerStride() : zero,
+                                           k1 >= 0 ? J.data() + k1 * J.outerStride() : zero,
+                                           k0 >= 0 ? range_[k0] : 0.0, k1 >= 0 ? range_[k1] : 0.0, m, H + c, ld);
+    gradient_free_[c] = k0 >= 0 ? range_[k0] * gradient[k0] : 0.0;
+    gradient_free_[c + 1] = k1 >= 0 ? range_[k1] * gradient[k1] : 0.0;
   }
-  // A = J W^-1 J^T (lower triangle).
-  gram_(Jt, Jwt, ld, m, np, A_.data(), A_.outerStride());
-  // u = J W^-1 dH/dq = J g, two rows at a time.
+  // A = H^T H (lower triangle).
+  gram_(H, H, ld, m, np, A_.data(), A_.outerStride());
+  // u = J W^-1 dH/dq = H^T (W^-1/2 dH/dq), two rows at a time.
   for (int i = 0; i < m; i += 2) {
     const int i1 = std::min(i + 1, m - 1);
     double s[2];
-    internal::two_dot_products(gradient_free_.data(), Jwt + i * ld, Jwt + i1 * ld, np, s);
+    internal::two_dot_products(gradient_free_.data(), H + i * ld, H + i1 * ld, np, s);
     u_rhs_[i] = s[0];
     u_rhs_[i1] = s[1];
   }
@@ -281,16 +276,16 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
     double* const rhs[2] = {y_.data(), u_.data()};
     solve_in_place<2>(m, rhs);
   }
-  // W^-1 J^T y and W^-1 J^T u over the free dofs.
+  // W^-1 J^T y = W^-1/2 H y and W^-1 J^T u = W^-1/2 H u over the free dofs.
   const double* task = task_free_.data();
   const double* null = null_free_.data();
-  transpose_products_(Jwt, ld, m, np, y_.data(), u_.data(), task_free_.data(), null_free_.data());
+  transpose_products_(H, ld, m, np, y_.data(), u_.data(), task_free_.data(), null_free_.data());
   out_.qdot_task.setZero();
   out_.qdot_null = g_;
   for (int c = 0; c < nf; ++c) {
     const int k = free_index_[c];
-    out_.qdot_task[k] = task[c];
-    out_.qdot_null[k] -= null[c];
+    out_.qdot_task[k] = range_[k] * task[c];
+    out_.qdot_null[k] -= range_[k] * null[c];
   }
   out_.qdot_null *= -parameters_.nullspace_gain;
   return flags;

@@ -123,18 +123,19 @@ class WholeBodySolver {
   const Model& model_;
   SolverParameters parameters_;
   int max_rows_;
-  /// Kernel of A = J W^-1 J^T, chosen for this CPU at construction (AVX2/FMA or portable).
+  /// Kernel of A = J W^-1 J^T = H^T H, chosen for this CPU at construction (AVX2/FMA or portable).
   void (*gram_)(const double* Jt, const double* Jwt, Eigen::Index ld, int m, int n, double* A, Eigen::Index lda);
-  /// Kernel of W^-1 J^T y and W^-1 J^T u, chosen likewise.
+  /// Kernel of H y and H u, chosen likewise.
   void (*transpose_products_)(const double* Jwt, Eigen::Index ld, int m, int n, const double* y1, const double* y2,
                               double* x1, double* x2);
   Mask free_;                 // b_C, plus dofs frozen at their limits
   Eigen::VectorXd w_;         // W^-1 diagonal with frozen dofs zeroed
+  Eigen::VectorXd range_;     // r_i: W^-1 = diag(r_i^2)
   Eigen::VectorXd range_sq_;  // r_i^2
   std::vector<int> free_index_;  // the free dofs, in order
-  // Over the free dofs, zero-padded to a multiple of four: J^T and W^-1 J^T ((n+3) x m),
-  // dH/dq, W^-1 J^T y and W^-1 J^T u.
-  Eigen::MatrixXd Jt_, Jwt_;
+  // Over the free dofs, zero-padded to a multiple of four: H = W^-1/2 J^T ((n+3) x m),
+  // W^-1/2 dH/dq, H y and H u.
+  Eigen::MatrixXd H_;
   Eigen::VectorXd gradient_free_, task_free_, null_free_;
   Eigen::VectorXd zero_column_;  // max rows zeros: the padding column
   Eigen::MatrixXd A_;   // J W^-1 J^T (lower triangle used)
