@@ -5,6 +5,8 @@
 
 #include "wbm/errors.hpp"
 
+#include "dot_kernels.hpp"
+
 namespace wbm {
 
 Controller::Controller(const Model& model, const SolverParameters& solver)
@@ -90,7 +92,8 @@ ControllerStatus Controller::update(const Command& command, double dt) {
     const int t0 = stack_.target_offset(i), n = e.target_dim();
     const bool active = stack_.element_active(i);
     const auto target = command.targets.segment(t0, n);
-    const bool valid = target.allFinite() && (e.target_kind() != TargetKind::kDirection || target.norm() > 1e-9);
+    const bool valid = internal::all_finite(target.data(), n) &&
+                       (e.target_kind() != TargetKind::kDirection || target.squaredNorm() > 1e-18);
     if (valid) {
       commanded_.segment(t0, n) = target;
     } else if (active) {

@@ -3,6 +3,8 @@
 /// Internal (not installed): the small inner-product kernels of the solver, and the
 /// kernels of A = J W^-1 J^T and of W^-1 J^T y with CPU-dispatched AVX2/FMA variants.
 
+#include <algorithm>
+
 #include <Eigen/Core>
 
 namespace wbm::internal {
@@ -18,6 +20,20 @@ inline Lanes load_lanes(const double* p) {
   return v;
 }
 #endif
+
+/// true if all n entries are finite: x * 0 is +-0 for finite x and NaN for inf and NaN, so
+/// the sum is 0 exactly when all are finite. Two independent sums, no branch per entry
+/// (Eigen's allFinite() compares entry by entry with an early exit).
+inline bool all_finite(const double* x, int n) {
+  double s0 = 0.0, s1 = 0.0;
+  int i = 0;
+  for (; i + 1 < n; i += 2) {
+    s0 += x[i] * 0.0;
+    s1 += x[i + 1] * 0.0;
+  }
+  if (i < n) s0 += x[i] * 0.0;
+  return s0 + s1 == 0.0;
+}
 
 /// Four inner products of two pairs of vectors of n entries: s = {b0.a0, b0.a1, b1.a0, b1.a1}.
 inline void four_dot_products(const double* a0, const double* a1, const double* b0, const double* b1, int n,
@@ -92,12 +108,19 @@ inline void two_dot_products(const double* a, const double* b0, const double* b1
 
 /// Lower triangle (and the entries next to it in 2 x 2 blocks) of A = Jt^T Jwt: Jt and Jwt
 /// are n x m column-major with leading dimension ld, n a multiple of 4 (zero-padded); A is
-/// column-major with leading dimension lda.
-using GramKernel = void (*)(const double* Jt, const double* Jwt, Eigen::Index ld, int m, int n, double* A,
-                            Eigen::Index lda);
+/// column-major with leading dimension lda. extent[i] <= n: entries from extent[i] on of
+/// column i are zero in both, and the sums skip them (in blocks of four).
+using GramKernel = void (*)(const double* Jt, const double* Jwt, Eigen::Index ld, int m, int n, const int* extent,
+                            double* A, Eigen::Index lda);
 /// Two-lane version (SSE2 on x86-64; any CPU).
-void weighted_gram_portable(const double* Jt, const double* Jwt, Eigen::Index ld, int m, int n, double* A,
-                            Eigen::Index lda);
+void weighted_gram_portable(const double* Jt, const double* Jwt, Eigen::Index ld, int m, int n, const int* extent,
+                            double* A, Eigen::Index lda);
+/// Length of the sums of the 2 x 2 block of columns (j, j1) x (i, i1): where both pairs
+/// still have non-zero entries, rounded up to a multiple of four (<= n).
+inline int block_extent(const int* extent, int j, int j1, int i, int i1) {
+  const int a = std::max(extent[j], extent[j1]), b = std::max(extent[i], extent[i1]);
+  return (std::min(a, b) + 3) & ~3;
+}
 /// Four-lane AVX2/FMA version, or nullptr where it is not compiled in (not x86-64 GCC/Clang).
 GramKernel weighted_gram_avx2();
 /// The AVX2/FMA kernel if this CPU has AVX2 and FMA, else the portable one. The results

@@ -21,7 +21,8 @@ Matrix3 axis_rotation(const Vector3& u, double angle) {
 
 /// R <- R * rotation(axis k, angle) for a coordinate axis: two columns mix.
 void rotate_columns(Matrix3& R, int k, double s, double c) {
-  const int i = (k + 1) % 3, j = (k + 2) % 3;
+  static constexpr int kNext[3] = {1, 2, 0}, kNextButOne[3] = {2, 0, 1};  // (k + 1) % 3, (k + 2) % 3
+  const int i = kNext[k], j = kNextButOne[k];
   const Vector3 ci = R.col(i), cj = R.col(j);
   R.col(i) = c * ci + s * cj;
   R.col(j) = c * cj - s * ci;

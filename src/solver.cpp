@@ -38,6 +38,7 @@ WholeBodySolver::WholeBodySolver(const Model& model, int max_rows, const SolverP
     range_sq_[i] = range_[i] * range_[i];
   }
   free_index_.assign(n, 0);
+  extent_.assign(m, 0);
   H_.setZero(n + 3, m);  // spare rows: padding to a multiple of four free dofs
   gradient_free_.setZero(n + 3);
   zero_column_.setZero(m);
@@ -157,12 +158,24 @@ void WholeBodySolver::solve_in_place(int m, double* const (&x)[K]) const {
   }
   for (int i = 0; i < m; ++i)
     for (int r = 0; r < K; ++r) x[r][i] *= inv[i];
+  // Backward: x_k -= L_ik x_i for k < i, two entries per operation. For odd i the pair
+  // (i - 1, i) also "updates" x_i by L_ii x_i with L_ii = 0 as stored (only the part below
+  // the diagonal is ever written), so every row works on the same aligned pairs.
   for (int i = m - 1; i > 0; --i) {
     const double* __restrict__ Li = &L_(i, 0);
-    double xi[K];
-    for (int r = 0; r < K; ++r) xi[r] = x[r][i];
-    for (int k = 0; k < i; ++k)
-      for (int r = 0; r < K; ++r) x[r][k] -= Li[k] * xi[r];
+    for (int r = 0; r < K; ++r) {
+      double* __restrict__ xr = x[r];
+      const double xi = xr[i];
+#if defined(__GNUC__)
+      const internal::Lanes v = {xi, xi};
+      for (int k = 0; k < i; k += 2) {
+        const internal::Lanes updated = internal::load_lanes(xr + k) - internal::load_lanes(Li + k) * v;
+        __builtin_memcpy(xr + k, &updated, sizeof updated);
+      }
+#else
+      for (int k = 0; k < i; ++k) xr[k] -= Li[k] * xi;
+#endif
+    }
   }
 }
 
@@ -226,8 +239,17 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
     gradient_free_[c] = k0 >= 0 ? range_[k0] * gradient[k0] : 0.0;
     gradient_free_[c + 1] = k1 >= 0 ? range_[k1] * gradient[k1] : 0.0;
   }
+  // Where each task row ends: the virtual dofs come first in every model and the limbs
+  // after them, so hand and head rows end well before the last dof; A's sums skip the
+  // zeros behind (exactly: they add nothing).
+  for (int i = 0; i < m; ++i) {
+    const double* row = H + i * ld;
+    int e = nf;
+    while (e > 0 && row[e - 1] == 0.0) --e;
+    extent_[i] = e;
+  }
   // A = H^T H (lower triangle).
-  gram_(H, H, ld, m, np, A_.data(), A_.outerStride());
+  gram_(H, H, ld, m, np, extent_.data(), A_.data(), A_.outerStride());
   // u = J W^-1 dH/dq = H^T (W^-1/2 dH/dq), two rows at a time.
   for (int i = 0; i < m; i += 2) {
     const int i1 = std::min(i + 1, m - 1);
@@ -306,7 +328,8 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
   out_.nullspace_scale = 1.0;
   out_.task_scale = 1.0;
   if (J.cols() != n || xdot.size() != m || gradient.size() != n || free_dofs.size() != n || m > max_rows_ ||
-      !(std::isfinite(dt) && dt > 0.0) || !xdot.allFinite() || !gradient.allFinite() ||
+      !(std::isfinite(dt) && dt > 0.0) || !internal::all_finite(xdot.data(), m) ||
+      !internal::all_finite(gradient.data(), n) ||
       (q != nullptr && q->size() != n)) {
     status.flags |= kInvalidInput;
     return status;
@@ -405,7 +428,7 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
   }
   out_.qdot_null *= out_.nullspace_scale;
   out_.qdot = out_.qdot_task + out_.qdot_null;
-  if (!out_.qdot.allFinite()) {
+  if (!internal::all_finite(out_.qdot.data(), n)) {
     out_.qdot.setZero();
     out_.qdot_task.setZero();
     out_.qdot_null.setZero();

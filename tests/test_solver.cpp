@@ -81,13 +81,22 @@ TEST(Solver, GramKernelsMatchEigen) {
   for (int c = 0; c < 2000; ++c) {
     const int m = 1 + static_cast<int>(rng() % 40), n = 4 * (1 + static_cast<int>(rng() % 25));
     const Eigen::Index ld = n + static_cast<Eigen::Index>(rng() % 3);
-    const Eigen::MatrixXd Jt = random_matrix(ld, m), w = random_matrix(n, 1).cwiseAbs();
+    Eigen::MatrixXd Jt = random_matrix(ld, m);
+    const Eigen::MatrixXd w = random_matrix(n, 1).cwiseAbs();
+    // Half the cases: columns ending early (zeros from a random extent on, as the solver
+    // finds them), told to the kernel; the others: extent n.
+    std::vector<int> extent(m, n);
+    if (c % 2 == 1)
+      for (int i = 0; i < m; ++i) {
+        extent[i] = static_cast<int>(rng() % (n + 1));
+        Jt.col(i).segment(extent[i], n - extent[i]).setZero();
+      }
     Eigen::MatrixXd Jwt = Jt;
     Jwt.topRows(n) = w.asDiagonal() * Jt.topRows(n);
     const Eigen::MatrixXd expected = Jt.topRows(n).transpose() * Jwt.topRows(n);
     for (const auto& [name, kernel] : kernels) {
       Eigen::MatrixXd A = Eigen::MatrixXd::Constant(m + 1, m, std::nan(""));
-      kernel(Jt.data(), Jwt.data(), ld, m, n, A.data(), A.outerStride());
+      kernel(Jt.data(), Jwt.data(), ld, m, n, extent.data(), A.data(), A.outerStride());
       const Eigen::MatrixXd lower = A.topRows(m).triangularView<Eigen::Lower>();
       const Eigen::MatrixXd lower_expected = expected.triangularView<Eigen::Lower>();
       ASSERT_LE((lower - lower_expected).cwiseAbs().maxCoeff(), 1e-12 * (1.0 + expected.cwiseAbs().maxCoeff()))

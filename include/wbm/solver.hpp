@@ -124,7 +124,8 @@ class WholeBodySolver {
   SolverParameters parameters_;
   int max_rows_;
   /// Kernel of A = J W^-1 J^T = H^T H, chosen for this CPU at construction (AVX2/FMA or portable).
-  void (*gram_)(const double* Jt, const double* Jwt, Eigen::Index ld, int m, int n, double* A, Eigen::Index lda);
+  void (*gram_)(const double* Jt, const double* Jwt, Eigen::Index ld, int m, int n, const int* extent, double* A,
+                Eigen::Index lda);
   /// Kernel of H y and H u, chosen likewise.
   void (*transpose_products_)(const double* Jwt, Eigen::Index ld, int m, int n, const double* y1, const double* y2,
                               double* x1, double* x2);
@@ -133,6 +134,7 @@ class WholeBodySolver {
   Eigen::VectorXd range_;     // r_i: W^-1 = diag(r_i^2)
   Eigen::VectorXd range_sq_;  // r_i^2
   std::vector<int> free_index_;  // the free dofs, in order
+  std::vector<int> extent_;      // per task row: 1 + its last free dof with a non-zero entry
   // Over the free dofs, zero-padded to a multiple of four: H = W^-1/2 J^T ((n+3) x m),
   // W^-1/2 dH/dq, H y and H u.
   Eigen::MatrixXd H_;
