@@ -1,5 +1,7 @@
 #include "wbm/trajectory_filter.hpp"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "wbm/errors.hpp"
@@ -7,6 +9,68 @@
 #include "fast_trig.hpp"
 
 namespace wbm {
+namespace {
+
+// Great-circle interpolation by a fixed fraction f of the angle theta between unit vectors
+// a and b: slerp = alpha a + beta b with alpha = sin((1 - f) theta) / sin theta and
+// beta = sin(f theta) / sin theta. Both are power series in v = 4 sin^2(theta/2) = 2 (1 - a.b)
+// (radius of convergence 4: theta = pi); for v <= kSlerpMaxV (theta <= 0.1 rad) eight terms
+// leave a truncation error below 1e-20. The coefficients depend on f only, so they are
+// computed (series arithmetic, a few hundred operations) only when the cycle time changes.
+constexpr int kSlerpTerms = 8;
+constexpr double kSlerpMaxV = 0.01;
+
+using Series = std::array<double, kSlerpTerms>;
+
+Series multiply(const Series& a, const Series& b) {
+  Series r{};
+  for (int i = 0; i < kSlerpTerms; ++i)
+    for (int j = 0; i + j < kSlerpTerms; ++j) r[i + j] += a[i] * b[j];
+  return r;
+}
+
+/// Coefficients of alpha (fraction 1 - f) and beta (fraction f) in v.
+void slerp_series(double f, double* alpha, double* beta) {
+  // theta^2 = 4 asin^2(sqrt(v) / 2) = sum_n 2 v^n / (n^2 C(2n, n)), and its powers.
+  Series u{};
+  double central = 1.0;  // C(2n, n)
+  for (int n = 1; n < kSlerpTerms; ++n) {
+    central = central * (2 * n) * (2 * n - 1) / (n * n);
+    u[n] = 2.0 / (n * n * central);
+  }
+  std::array<Series, kSlerpTerms> power{};
+  power[0][0] = 1.0;
+  for (int k = 1; k < kSlerpTerms; ++k) power[k] = multiply(power[k - 1], u);
+  // sin(lambda theta) / (lambda theta) = sum_k (-1)^k (lambda^2 theta^2)^k / (2k + 1)!.
+  auto sinc = [&](double lambda) {
+    Series r{};
+    double term = 1.0;  // (-1)^k lambda^(2k) / (2k + 1)!
+    for (int k = 0; k < kSlerpTerms; ++k) {
+      for (int i = 0; i < kSlerpTerms; ++i) r[i] += term * power[k][i];
+      term *= -lambda * lambda / ((2 * k + 2) * (2 * k + 3));
+    }
+    return r;
+  };
+  // 1 / sinc(theta) by the recurrence of a reciprocal series (leading coefficient 1).
+  const Series denominator = sinc(1.0);
+  Series reciprocal{};
+  reciprocal[0] = 1.0;
+  for (int n = 1; n < kSlerpTerms; ++n)
+    for (int k = 1; k <= n; ++k) reciprocal[n] -= denominator[k] * reciprocal[n - k];
+  const Series a = multiply(sinc(1.0 - f), reciprocal), b = multiply(sinc(f), reciprocal);
+  for (int i = 0; i < kSlerpTerms; ++i) {
+    alpha[i] = (1.0 - f) * a[i];
+    beta[i] = f * b[i];
+  }
+}
+
+/// c[0] + c[1] v + ... + c[7] v^7 in Estrin's scheme.
+double polynomial8(const double* c, double v) {
+  const double v2 = v * v, v4 = v2 * v2;
+  return ((c[0] + v * c[1]) + v2 * (c[2] + v * c[3])) + v4 * ((c[4] + v * c[5]) + v2 * (c[6] + v * c[7]));
+}
+
+}  // namespace
 
 TrajectoryFilter::TrajectoryFilter(TargetKind kind, int dim, const FilterParameters& parameters)
     : kind_(kind), parameters_(parameters) {
@@ -76,7 +140,8 @@ void TrajectoryFilter::move_towards(Eigen::Ref<Eigen::VectorXd> x, const Eigen::
     }
     return;
   }
-  // Great circle: rotate x towards `to` by the step angle; both are unit vectors.
+  // Great circle: rotate x towards `to` by the step angle; both are unit vectors (the
+  // general case: the caller tries slerp_by_fraction first).
   const Vector3 a = x.head<3>();
   const Vector3 b = to.head<3>();
   const double c = a.dot(b);
@@ -103,22 +168,50 @@ void TrajectoryFilter::move_towards(Eigen::Ref<Eigen::VectorXd> x, const Eigen::
   x = rotated * (0.5 * (3.0 - rotated.squaredNorm()));
 }
 
+bool TrajectoryFilter::slerp_by_fraction(Eigen::Ref<Eigen::VectorXd> x, const Vector3& to, double v_limit) const {
+  const Vector3 a = x.head<3>();
+  const double v = 2.0 - 2.0 * a.dot(to);  // 4 sin^2(angle / 2), absolute error ~1e-16
+  if (!(v <= v_limit)) return false;
+  const Vector3 moved = polynomial8(slerp_alpha_, v) * a + polynomial8(slerp_beta_, v) * to;
+  // One Newton step towards unit length (no square root) keeps the stages from drifting.
+  x.head<3>() = moved * (0.5 * (3.0 - moved.squaredNorm()));
+  return true;
+}
+
 void TrajectoryFilter::update(const Eigen::Ref<const Eigen::VectorXd>& target, double dt) {
   const int n = parameters_.order;
   if (dt != fraction_dt_) {  // the cycle time rarely changes: exp only when it does
     fraction_dt_ = dt;
     fraction_ = 1.0 - std::exp(-parameters_.bandwidth * dt);
+    if (kind_ == TargetKind::kDirection) {
+      slerp_series(fraction_, slerp_alpha_, slerp_beta_);
+      // Stage 1 steps by fraction * angle while that is below max_speed dt.
+      const double angle = parameters_.max_speed * dt / fraction_;
+      const double half_chord = std::sin(0.5 * std::min(angle, M_PI));
+      stage1_v_limit_ = std::min(kSlerpMaxV, 4.0 * half_chord * half_chord);
+    }
   }
   const double fraction = fraction_;
   const double infinite = std::numeric_limits<double>::infinity();
   if (kind_ == TargetKind::kDirection) {
-    // The stages are unit vectors; so is the target from here on.
-    const Vector3 unit_target = target.head<3>().normalized();
-    move_towards(stages_.col(0), unit_target, fraction, parameters_.max_speed * dt);
+    // The stages are unit vectors; so is the target from here on. A target of length 1
+    // up to rounding (the usual case) is normalised by a Newton step (error < 4e-17).
+    const Vector3 t = target.head<3>();
+    const double length2 = t.squaredNorm();
+    const Vector3 unit_target = std::abs(length2 - 1.0) <= 1e-8 ? Vector3(t * (1.5 - 0.5 * length2))
+                                : length2 > 0.0                  ? Vector3(t / std::sqrt(length2))
+                                                                 : Vector3::Zero();  // as Eigen's normalized()
+    if (!slerp_by_fraction(stages_.col(0), unit_target, stage1_v_limit_))
+      move_towards(stages_.col(0), unit_target, fraction, parameters_.max_speed * dt);
+    for (int k = 1; k < n; ++k) {
+      const Vector3 previous = stages_.col(k - 1).head<3>();
+      if (!slerp_by_fraction(stages_.col(k), previous, kSlerpMaxV))
+        move_towards(stages_.col(k), stages_.col(k - 1), fraction, infinite);
+    }
   } else {
     move_towards(stages_.col(0), target, fraction, parameters_.max_speed * dt);
+    for (int k = 1; k < n; ++k) move_towards(stages_.col(k), stages_.col(k - 1), fraction, infinite);
   }
-  for (int k = 1; k < n; ++k) move_towards(stages_.col(k), stages_.col(k - 1), fraction, infinite);
   // value_ is still the last stage before this update (every reset keeps them equal).
   const double inverse_dt = 1.0 / dt;
   if (value_.size() == 3) {  // positions and directions, without dynamic-size loops

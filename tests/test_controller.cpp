@@ -162,6 +162,57 @@ TEST(TrajectoryFilter, DirectionsMoveOnGreatCirclesWithinTheAngularSpeed) {
   }
 }
 
+// One update of a direction filter against great-circle rotations computed with Eigen's
+// AngleAxis, for stage steps taken by the series slerp (angles <= 0.1 rad, speed limit not
+// binding), by the general path (larger angles, or the speed limit binding) and across the
+// boundary between them, for cycle times that give fractions from 0.005 to 0.99; and a
+// target that is not of unit length.
+TEST(TrajectoryFilter, DirectionStepIsTheExactGreatCircleStep) {
+  std::mt19937_64 rng(67);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  auto towards = [](const Vector3& a, const Vector3& b, double step) -> Vector3 {
+    const Vector3 axis = a.cross(b);
+    return axis.norm() < 1e-300 ? a : Vector3(Eigen::AngleAxisd(step, axis.normalized()) * a);
+  };
+  auto angle = [](const Vector3& a, const Vector3& b) { return std::atan2(a.cross(b).norm(), a.dot(b)); };
+  double worst = 0.0;
+  int series_steps = 0, general_steps = 0;
+  for (int c = 0; c < 20000; ++c) {
+    FilterParameters p;
+    const double dt = std::pow(10.0, -3.0 + 2.0 * uniform(rng));  // 1 ms .. 0.1 s: fraction 0.005 .. 0.39
+    p.bandwidth = c % 5 == 0 ? 45.0 : 5.0;                          // fraction up to 0.99
+    p.max_speed = c % 3 == 0 ? 0.05 : 5.0;                          // binding or not
+    TrajectoryFilter f(TargetKind::kDirection, 3, p);
+    const Vector3 a = wbm_test::random_direction(3, rng);
+    const double theta = c % 4 == 0 ? 0.5 * uniform(rng) : c % 4 == 1 ? 0.1 * (0.999 + 0.002 * uniform(rng))
+                                                                      : 0.1 * std::pow(uniform(rng), 3.0);
+    const Vector3 normal = a.cross(Vector3(wbm_test::random_direction(3, rng))).normalized();
+    const Vector3 b = Eigen::AngleAxisd(theta, normal) * a;
+    f.reset(a, Vector3::Zero());
+    const double length = c % 7 == 0 ? 2.5 : 1.0;
+    f.update(length * b, dt);
+    const double fraction = 1.0 - std::exp(-p.bandwidth * dt);
+    const double step0 = std::min(fraction * theta, p.max_speed * dt);
+    (fraction * theta <= p.max_speed * dt && theta <= 0.1 ? series_steps : general_steps) += 1;
+    const Vector3 stage0 = towards(a, b, step0);
+    const Vector3 expected = towards(a, stage0, fraction * angle(a, stage0));
+    const double error = (f.value() - expected).norm();
+    worst = std::max(worst, error);
+    ASSERT_LT(error, 2e-15) << "case " << c << ": angle " << theta << ", dt " << dt << ", fraction " << fraction
+                            << ", max step " << p.max_speed * dt;
+    ASSERT_NEAR(f.value().norm(), 1.0, 1e-15);
+  }
+  std::cout << "  largest difference to AngleAxis: " << worst << " (" << series_steps << " cases with the series, "
+            << general_steps << " with the general path at stage 1)\n";
+  EXPECT_GT(series_steps, 5000);
+  EXPECT_GT(general_steps, 5000);
+  // A zero target is ignored (nothing moves), as before the series existed.
+  TrajectoryFilter f(TargetKind::kDirection, 3, FilterParameters{});
+  f.reset(Vector3::UnitZ(), Vector3::Zero());
+  f.update(Vector3::Zero(), 0.001);
+  EXPECT_EQ(f.value(), Eigen::VectorXd(Vector3::UnitZ()));
+}
+
 // The filters' small-angle functions (angle between unit vectors, sin, cos) agree with the
 // library to a few ulp inside their range, at its boundary and just outside (where they
 // call the library).

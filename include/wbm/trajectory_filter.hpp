@@ -50,12 +50,21 @@ class TrajectoryFilter {
   /// One stage step. Directions: x and `to` are unit vectors.
   void move_towards(Eigen::Ref<Eigen::VectorXd> x, const Eigen::Ref<const Eigen::VectorXd>& to, double fraction,
                     double max_step) const;
+  /// A direction stage moved by the fraction of its angle to `to` (the step when the speed
+  /// limit does not bind) as x' = alpha x + beta to, with alpha and beta polynomials in
+  /// 4 sin^2(angle/2) = 2 (1 - x.to); false (nothing done) if that exceeds v_limit.
+  bool slerp_by_fraction(Eigen::Ref<Eigen::VectorXd> x, const Vector3& to, double v_limit) const;
 
   TargetKind kind_;
   FilterParameters parameters_;
   Eigen::MatrixXd stages_;  // dim x order; the last column is the output
   Eigen::VectorXd value_, velocity_;  // value_ == the last stage between updates
   double fraction_dt_ = 0.0, fraction_ = 0.0;  // 1 - exp(-omega dt) for the last dt
+  // Directions, for the fraction_ above: Taylor coefficients of alpha and beta (see
+  // slerp_by_fraction) and the largest 2 (1 - cos angle) at which stage 1's step is
+  // fraction * angle (the speed limit does not bind) and the series applies.
+  double slerp_alpha_[8] = {}, slerp_beta_[8] = {};
+  double stage1_v_limit_ = -1.0;
 };
 
 }  // namespace wbm
