@@ -10,6 +10,8 @@
 
 #include <cmath>
 
+#include <Eigen/Core>
+
 namespace wbm::internal {
 
 inline constexpr double kSmallAngle = 0.1;
@@ -26,6 +28,15 @@ inline double angle_between_unit_vectors(double s, double s2, double c) {
   const double q2 = 35.0 / 1152 + y * (63.0 / 2816), q3 = 231.0 / 13312 + y * (143.0 / 10240);
   const double r0 = q0 + y2 * q1, r1 = q2 + y2 * q3;
   return s * (r0 + y4 * (r1 + y4 * (6435.0 / 557056)));
+}
+
+/// v / |v| (and 0 for v = 0, as Eigen's normalized()): for |v|^2 within 1e-8 of 1 (unit
+/// vectors up to rounding: rotation-matrix columns, filter outputs) one Newton step of
+/// 1/sqrt, error below 4e-17, without the square root and the division.
+inline Eigen::Vector3d normalized_near_unit(const Eigen::Vector3d& v) {
+  const double length2 = v.squaredNorm();
+  if (std::abs(length2 - 1.0) <= 1e-8) return v * (1.5 - 0.5 * length2);
+  return length2 > 0.0 ? Eigen::Vector3d(v / std::sqrt(length2)) : v;
 }
 
 /// sin(x) and cos(x).

@@ -185,12 +185,13 @@ int WholeBodySolver::start_inverse_iteration(int m) {
   // threshold, where the estimate sets the damping.
   auto v = v_.head(m);
   int steps = last_estimate_ < 4.0 * parameters_.singular_threshold * parameters_.singular_threshold ? 2 : 1;
-  if (m != previous_rows_ || !v.allFinite() || v.norm() == 0.0) {
+  // v is the previous cycle's normalised iterate, unless the row count changed or it broke.
+  if (m != previous_rows_ || !internal::all_finite(v.data(), m) || !(v.squaredNorm() > 0.0)) {
     for (int i = 0; i < m; ++i) v[i] = 1.0 + 0.37 * i;
+    v.normalize();
     previous_rows_ = m;
     steps = 3;
   }
-  v.normalize();
   return steps;
 }
 

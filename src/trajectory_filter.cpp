@@ -194,13 +194,8 @@ void TrajectoryFilter::update(const Eigen::Ref<const Eigen::VectorXd>& target, d
   const double fraction = fraction_;
   const double infinite = std::numeric_limits<double>::infinity();
   if (kind_ == TargetKind::kDirection) {
-    // The stages are unit vectors; so is the target from here on. A target of length 1
-    // up to rounding (the usual case) is normalised by a Newton step (error < 4e-17).
-    const Vector3 t = target.head<3>();
-    const double length2 = t.squaredNorm();
-    const Vector3 unit_target = std::abs(length2 - 1.0) <= 1e-8 ? Vector3(t * (1.5 - 0.5 * length2))
-                                : length2 > 0.0                  ? Vector3(t / std::sqrt(length2))
-                                                                 : Vector3::Zero();  // as Eigen's normalized()
+    // The stages are unit vectors; so is the target from here on.
+    const Vector3 unit_target = internal::normalized_near_unit(target.head<3>());
     if (!slerp_by_fraction(stages_.col(0), unit_target, stage1_v_limit_))
       move_towards(stages_.col(0), unit_target, fraction, parameters_.max_speed * dt);
     for (int k = 1; k < n; ++k) {

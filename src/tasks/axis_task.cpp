@@ -15,8 +15,8 @@ void AxisTask::value(const Model& model, const Data& data, Eigen::Ref<Eigen::Vec
 }
 
 Matrix3 AxisTask::sl_frame(const Vector3& a_g, const Vector3& a_t, const Vector3& fallback_y, double* phi) {
-  const Vector3 z = a_g.normalized();
-  const Vector3 t = a_t.normalized();
+  const Vector3 z = internal::normalized_near_unit(a_g);
+  const Vector3 t = internal::normalized_near_unit(a_t);
   const Vector3 c = z.cross(t);
   const double s2 = c.squaredNorm();
   const double s = std::sqrt(s2);
@@ -63,9 +63,8 @@ void AxisTask::evaluate(const Model& model, const Data& data, const Eigen::Ref<c
   add_projected_axes(model, data, model.frames()[frame_.frame()].body, P, 1.0, J);
   if (frame_.reference() >= 0) add_projected_axes(model, data, model.frames()[frame_.reference()].body, P, -1.0, J);
   error << 0.0, phi;
-  // Angular velocity of the moving unit target: w = a_t x d(a_t)/dt.
-  const double norm = a_t.norm();
-  const Vector3 w = a_t.cross(Vector3(target_rate.head<3>())) * (norm > 0.0 ? 1.0 / norm : 0.0);
+  // Angular velocity of the moving unit target: w = a_t x d(a_t)/dt (a_t of any length).
+  const Vector3 w = internal::normalized_near_unit(a_t).cross(Vector3(target_rate.head<3>()));
   rate = R_sl.leftCols<2>().transpose() * w;
 }
 
