@@ -64,6 +64,13 @@ __attribute__((target("avx2,fma"))) inline Lanes4 load4(const double* p) {
 
 __attribute__((target("avx2,fma"))) inline double sum4(Lanes4 v) { return (v[0] + v[2]) + (v[1] + v[3]); }
 
+/// out[0] = sum of a's lanes, out[1] = sum of b's lanes: interleave, add, fold the halves.
+__attribute__((target("avx2,fma"))) inline void store_pair_sums(Lanes4 a, Lanes4 b, double* out) {
+  const Lanes4 pairs = __builtin_shufflevector(a, b, 0, 4, 2, 6) + __builtin_shufflevector(a, b, 1, 5, 3, 7);
+  const Lanes sums = __builtin_shufflevector(pairs, pairs, 0, 1) + __builtin_shufflevector(pairs, pairs, 2, 3);
+  __builtin_memcpy(out, &sums, sizeof sums);
+}
+
 __attribute__((target("avx2,fma"))) void weighted_gram_avx2_kernel(const double* Jt, const double* Jwt,
                                                                    Eigen::Index ld, int m, int /*n*/,
                                                                    const int* extent, double* A, Eigen::Index lda) {
@@ -85,10 +92,15 @@ __attribute__((target("avx2,fma"))) void weighted_gram_avx2_kernel(const double*
         s10 += y1 * x0;
         s11 += y1 * x1;
       }
-      A[j * lda + i] = sum4(s00);
-      A[j1 * lda + i] = sum4(s01);
-      A[j * lda + i1] = sum4(s10);
-      A[j1 * lda + i1] = sum4(s11);
+      if (i1 == i + 1) {
+        // Rows i and i + 1 of columns j and j1 are neighbours in A: the four sums pairwise,
+        // two stores.
+        store_pair_sums(s00, s10, A + j * lda + i);
+        store_pair_sums(s01, s11, A + j1 * lda + i);
+      } else {
+        A[j * lda + i] = sum4(s00);
+        A[j1 * lda + i] = sum4(s01);
+      }
     }
   }
 }
