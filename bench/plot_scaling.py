@@ -255,10 +255,12 @@ def write_md(samples, context, fits, path):
     L.append("## Expected growth\n")
     L.append("Per cycle, with n dofs and m active rows: forward kinematics, filters and the joint-space vectors, "
              "O(n) (plus O(m) per element); the Jacobian rows (each element clears and fills its rows, the stack "
-             "copies the active rows), O(n m); in the solver `J^T`, `W^-1 J^T`, `J^T y`, `J g` and "
-             "`W^-1 J^T u`, O(n m) each; `A = J W^-1 J^T`, O(n m^2) (m(m+1)/2 dot products of length n; this term is "
-             "missing from the O(n m + m^3) the issue expected); the L D L^T factor of A, O(m^3) (m^3/6 "
-             "multiply-adds, once, twice on damped cycles); inverse iteration and the triangular solves, O(m^2).\n")
+             "copies the active rows), O(n m); in the solver the scaled copy `H = W^-1/2 J^T`, `H^T W^-1/2 g`, "
+             "`H y` and `H u`, O(n m) each; `A = J W^-1 J^T = H^T H`, O(n m^2) (m(m+1)/2 dot products of length n; "
+             "this term is missing from the O(n m + m^3) the issue expected; the sums stop where both rows end, "
+             "so on trees whose rows end early, as on these branched ones, it grows less); the L D L^T factor of "
+             "A, O(m^3) (m^3/6 multiply-adds, once, twice on damped cycles); inverse iteration and the triangular "
+             "solves, O(m^2).\n")
     L.append("## Fits\n")
     L.append("Least-squares fits of the medians (relative errors) over all three sweeps; n = dofs, m = rows; "
              "coefficients in ns per unit of the term.\n")
