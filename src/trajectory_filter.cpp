@@ -16,7 +16,7 @@ namespace {
 // beta = sin(f theta) / sin theta. Both are power series in v = 4 sin^2(theta/2) = 2 (1 - a.b)
 // (radius of convergence 4: theta = pi); for v <= kSlerpMaxV (theta <= 0.1 rad) eight terms
 // leave a truncation error below 1e-20. The coefficients depend on f only, so they are
-// computed (series arithmetic, a few hundred operations) only when the cycle time changes.
+// computed only when the cycle time changes, from a basis that does not depend on f.
 constexpr int kSlerpTerms = 8;
 constexpr double kSlerpMaxV = 0.01;
 
@@ -29,9 +29,10 @@ Series multiply(const Series& a, const Series& b) {
   return r;
 }
 
-/// Coefficients of alpha (fraction 1 - f) and beta (fraction f) in v.
-void slerp_series(double f, double* alpha, double* beta) {
-  // theta^2 = 4 asin^2(sqrt(v) / 2) = sum_n 2 v^n / (n^2 C(2n, n)), and its powers.
+/// The part of the series that does not depend on f: Q_k = u^k / sinc(theta) as series in v,
+/// with u = theta^2 = 4 asin^2(sqrt(v) / 2) = sum_n 2 v^n / (n^2 C(2n, n)) and
+/// sinc(theta) = sin(theta) / theta = sum_k (-1)^k u^k / (2k + 1)!.
+std::array<Series, kSlerpTerms> slerp_basis() {
   Series u{};
   double central = 1.0;  // C(2n, n)
   for (int n = 1; n < kSlerpTerms; ++n) {
@@ -41,27 +42,37 @@ void slerp_series(double f, double* alpha, double* beta) {
   std::array<Series, kSlerpTerms> power{};
   power[0][0] = 1.0;
   for (int k = 1; k < kSlerpTerms; ++k) power[k] = multiply(power[k - 1], u);
-  // sin(lambda theta) / (lambda theta) = sum_k (-1)^k (lambda^2 theta^2)^k / (2k + 1)!.
-  auto sinc = [&](double lambda) {
-    Series r{};
-    double term = 1.0;  // (-1)^k lambda^(2k) / (2k + 1)!
-    for (int k = 0; k < kSlerpTerms; ++k) {
-      for (int i = 0; i < kSlerpTerms; ++i) r[i] += term * power[k][i];
-      term *= -lambda * lambda / ((2 * k + 2) * (2 * k + 3));
-    }
-    return r;
-  };
-  // 1 / sinc(theta) by the recurrence of a reciprocal series (leading coefficient 1).
-  const Series denominator = sinc(1.0);
+  Series sinc{};
+  double term = 1.0;  // (-1)^k / (2k + 1)!
+  for (int k = 0; k < kSlerpTerms; ++k) {
+    for (int i = 0; i < kSlerpTerms; ++i) sinc[i] += term * power[k][i];
+    term *= -1.0 / ((2 * k + 2) * (2 * k + 3));
+  }
+  // 1 / sinc by the recurrence of a reciprocal series (leading coefficient 1).
   Series reciprocal{};
   reciprocal[0] = 1.0;
   for (int n = 1; n < kSlerpTerms; ++n)
-    for (int k = 1; k <= n; ++k) reciprocal[n] -= denominator[k] * reciprocal[n - k];
-  const Series a = multiply(sinc(1.0 - f), reciprocal), b = multiply(sinc(f), reciprocal);
-  for (int i = 0; i < kSlerpTerms; ++i) {
-    alpha[i] = (1.0 - f) * a[i];
-    beta[i] = f * b[i];
-  }
+    for (int k = 1; k <= n; ++k) reciprocal[n] -= sinc[k] * reciprocal[n - k];
+  for (Series& p : power) p = multiply(p, reciprocal);
+  return power;
+}
+
+/// Coefficients of alpha (fraction 1 - f) and beta (fraction f) in v:
+/// sin(lambda theta) / sin(theta) = lambda sum_k (-1)^k lambda^(2k) / (2k + 1)! Q_k.
+/// Runs whenever the cycle time changes (a measured dt may change every cycle): 2 x 64
+/// multiply-adds on the basis, which is computed once.
+void slerp_series(double f, double* alpha, double* beta) {
+  static const std::array<Series, kSlerpTerms> basis = slerp_basis();
+  auto combine = [&](double lambda, double* out) {
+    double term = lambda;  // lambda (-1)^k lambda^(2k) / (2k + 1)!
+    for (int i = 0; i < kSlerpTerms; ++i) out[i] = 0.0;
+    for (int k = 0; k < kSlerpTerms; ++k) {
+      for (int i = 0; i < kSlerpTerms; ++i) out[i] += term * basis[k][i];
+      term *= -lambda * lambda / ((2 * k + 2) * (2 * k + 3));
+    }
+  };
+  combine(1.0 - f, alpha);
+  combine(f, beta);
 }
 
 /// c[0] + c[1] v + ... + c[7] v^7 in Estrin's scheme.
