@@ -137,12 +137,12 @@ ControllerStatus Controller::update(const Command& command, double dt) {
     qdot_.setZero();
     return status;
   }
-  q_total_ = solver_->output().qdot;
-  if (external) q_total_ += external_;
-  status.flags |= integrate(model_, q_, q_total_, dt, q_next_);
+  if (external) q_total_ = solver_->output().qdot + external_;
+  status.flags |= integrate(model_, q_, external ? q_total_ : solver_->output().qdot, dt, q_next_);
   qdot_ = (q_next_ - q_) * (1.0 / dt);
-  q_ = q_next_;
-  previous_values_ = values_;
+  // Swaps (of the buffers, no copies): q_next_ and values_ are overwritten whole next time.
+  q_.swap(q_next_);
+  previous_values_.swap(values_);
   update_kinematics();
   value_rates_ = (values_ - previous_values_) * (1.0 / dt);
   return status;
