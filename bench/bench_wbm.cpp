@@ -12,7 +12,8 @@
 //   <id>/kdl_arm/cycle       the same with ChainIkSolverVel_pinv_nso on the right arm chain only
 //                            (ChainIkSolverVel_pinv for arms with < 6 joints: the paper model)
 // plus scaling/dofs/<n> and scaling/rows_n<n>/<m> on generated trees (the cycle, and its
-// assemble and solve stages alone: .../assemble, .../solve).
+// assemble and solve stages alone: .../assemble, .../solve), and filter/direction/fixed_dt
+// and .../varying_dt (one axis filter update; dt changing on every call).
 //
 // Every iteration is one call timed on its own (steady_clock, manual time), so the table at
 // the end gives the median and the 99th percentile of single calls. Nothing asserts on
@@ -25,6 +26,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <map>
@@ -37,6 +39,7 @@
 #include "bench_common.hpp"
 #include "fixtures.hpp"
 #include "scaling.hpp"
+#include "wbm/trajectory_filter.hpp"
 
 namespace {
 
@@ -92,6 +95,27 @@ bool parse_own_flags(int& argc, char** argv, FixtureSpec& custom, std::string& e
   const std::string id = flags.count("id") ? flags["id"] : "custom";
   custom = wbm_bench::custom_fixture(id, flags["urdf"], options, hands[0], hands[1], flags["head"]);
   return true;
+}
+
+/// One direction (axis) filter update, with the cycle time fixed or changing on every call
+/// (a measured dt): the filter recomputes its step coefficients whenever dt changes.
+void bm_direction_filter(benchmark::State& state, bool varying_dt) {
+  wbm::TrajectoryFilter filter(wbm::TargetKind::kDirection, 3, wbm::FilterParameters{});
+  filter.reset(Eigen::Vector3d::UnitZ(), Eigen::Vector3d::Zero());
+  const double w = 2.0 * M_PI * 0.25;  // the target moves on a cone, as in the fixtures
+  double t = 0.0;
+  long k = 0;
+  Eigen::Vector3d target = Eigen::Vector3d::UnitZ();
+  double dt = 1e-3;
+  wbm_bench::timed_loop(
+      state,
+      [&] {
+        dt = varying_dt ? 1e-3 * (1.0 + 1e-4 * static_cast<double>(++k % 7)) : 1e-3;
+        t += dt;
+        target = Eigen::Vector3d(0.15 * std::cos(w * t), 0.15 * std::sin(w * t), 1.0).normalized();
+      },
+      [&] { filter.update(target, dt); });
+  if (!filter.value().allFinite()) state.SkipWithError("direction filter produced NaN");
 }
 
 struct Result {
@@ -287,6 +311,11 @@ int main(int argc, char** argv) {
           ->Unit(benchmark::kMicrosecond);
     }
   }
+  for (bool varying : {false, true})
+    benchmark::RegisterBenchmark(varying ? "filter/direction/varying_dt" : "filter/direction/fixed_dt",
+                                 bm_direction_filter, varying)
+        ->UseManualTime()
+        ->Unit(benchmark::kNanosecond);
   static std::vector<wbm_bench::ScalingCase> scaling = wbm_bench::scaling_cases();
   for (const wbm_bench::ScalingCase& c : scaling)
     for (wbm_bench::ScalingStage stage :
