@@ -242,10 +242,11 @@ int FixtureSpec::rows() const {
 
 std::vector<FixtureSpec> standard_fixtures() {
   std::vector<FixtureSpec> list;
+  const wbm_test::ShippedModel& paper_model = wbm_test::shipped_model("paper");
   FixtureSpec paper;
-  paper.left_hand = "l_hand_ref";
-  paper.right_hand = "r_hand_ref";
-  paper.head = "head_camera";
+  paper.left_hand = paper_model.left_hand;
+  paper.right_hand = paper_model.right_hand;
+  paper.head = paper_model.head;
 
   FixtureSpec p3 = paper;
   p3.id = "paper_r3";
