@@ -6,6 +6,7 @@
 #include "wbm/errors.hpp"
 
 #include "dot_kernels.hpp"
+#include "unit_row_elimination.hpp"
 
 namespace wbm {
 namespace {
@@ -24,7 +25,8 @@ void check(const SolverParameters& p) {
 
 WholeBodySolver::WholeBodySolver(const Model& model, int max_rows, const SolverParameters& parameters)
     : model_(model), parameters_(parameters), max_rows_(max_rows), gram_(internal::select_weighted_gram()),
-      transpose_products_(internal::select_transpose_products()) {
+      transpose_products_(internal::select_transpose_products()),
+      elimination_(std::make_unique<internal::UnitRowElimination>(model.num_dofs(), std::max(max_rows, 1))) {
   check(parameters);
   if (max_rows < 0) throw ConfigError("solver: max_rows must be >= 0");
   const int n = model.num_dofs();
@@ -38,6 +40,7 @@ WholeBodySolver::WholeBodySolver(const Model& model, int max_rows, const SolverP
     range_sq_[i] = range_[i] * range_[i];
   }
   free_index_.assign(n, 0);
+  remaining_index_.assign(n, 0);
   extent_.assign(m, 0);
   H_.setZero(n + 3, m);  // spare rows: padding to a multiple of four free dofs
   gradient_free_.setZero(n + 3);
@@ -53,12 +56,15 @@ WholeBodySolver::WholeBodySolver(const Model& model, int max_rows, const SolverP
   y_.setZero(m);
   v_.setZero(m);
   u_.setZero(m);
+  z_.setZero(m);
   g_.setZero(n);
   previous_null_.setZero(n);
   out_.qdot.setZero(n);
   out_.qdot_task.setZero(n);
   out_.qdot_null.setZero(n);
 }
+
+WholeBodySolver::~WholeBodySolver() = default;
 
 void WholeBodySolver::set_parameters(const SolverParameters& parameters) {
   check(parameters);
@@ -202,6 +208,96 @@ double WholeBodySolver::normalize_iterate(int m) {
   return growth;
 }
 
+int WholeBodySolver::scale_rows(const Eigen::Ref<const Eigen::MatrixXd>& J,
+                                const Eigen::Ref<const Eigen::VectorXd>& gradient, const int* dofs, int nf,
+                                int columns) {
+  // Two dofs at a time: a 2 x 2 transpose per two rows, two stores.
+  const int np = (nf + 3) & ~3;
+  const Eigen::Index ld = H_.outerStride();
+  double* H = H_.data();
+  const double* zero = zero_column_.data();
+  for (int c = 0; c < np; c += 2) {
+    const int k0 = c < nf ? dofs[c] : -1;
+    const int k1 = c + 1 < nf ? dofs[c + 1] : -1;
+    internal::scaled_transpose_two_columns(k0 >= 0 ? J.data() + k0 * J.outerStride() : zero,
+                                           k1 >= 0 ? J.data() + k1 * J.outerStride() : zero,
+                                           k0 >= 0 ? range_[k0] : 0.0, k1 >= 0 ? range_[k1] : 0.0, columns, H + c,
+                                           ld);
+    gradient_free_[c] = k0 >= 0 ? range_[k0] * gradient[k0] : 0.0;
+    gradient_free_[c + 1] = k1 >= 0 ? range_[k1] * gradient[k1] : 0.0;
+  }
+  return np;
+}
+
+int WholeBodySolver::find_row_ends(int m, int nf) {
+  // The virtual dofs come first in every model and the limbs after them, so hand and head
+  // rows end well before the last dof; A's sums skip the zeros behind (exactly: they add
+  // nothing). Rows with one non-zero entry or none are counted (for the row elimination).
+  const double* H = H_.data();
+  int single = 0;
+  for (int i = 0; i < m; ++i) {
+    const double* row = H + i * H_.outerStride();
+    int e = nf;
+    while (e > 0 && row[e - 1] == 0.0) --e;
+    extent_[i] = e;
+    // One non-zero entry or none? Rarely: the entry before a row's last one is almost always
+    // non-zero (the joint before the last of a chain), which settles it at once.
+    if (e < 2 || row[e - 2] == 0.0) {
+      int first = 0;
+      while (first + 1 < e && row[first] == 0.0) ++first;
+      single += first + 1 >= e;
+    }
+  }
+  return single;
+}
+
+int WholeBodySolver::prepare_rows(const Eigen::Ref<const Eigen::MatrixXd>& J,
+                                  const Eigen::Ref<const Eigen::VectorXd>& gradient, int nf, int& nr,
+                                  const int*& dofs) {
+  // The previous cycle's eliminated rows first; if H shows that a fresh search would give
+  // other rows, the search on H over all free dofs.
+  internal::UnitRowElimination& elimination = *elimination_;
+  const int m = static_cast<int>(J.rows());
+  const Eigen::Index ld = H_.outerStride();
+  double* __restrict__ H = H_.data();
+  bool reused = elimination.reuse(J, free_.data(), range_.data());
+  int np = 0;
+  for (;;) {
+    nr = nf;
+    dofs = free_index_.data();
+    if (!reused) {  // find the rows on H over all free dofs
+      np = scale_rows(J, gradient, dofs, nf, m);
+      find_row_ends(m, nf);
+      elimination.find(J, H, ld, extent_.data(), dofs);
+      if (elimination.num_eliminated() == 0) break;  // H and the row ends are complete
+    }
+    if (elimination.num_eliminated() > 0) {
+      nr = 0;
+      for (int c = 0; c < nf; ++c)
+        if (!elimination.is_eliminated_dof(free_index_[c])) remaining_index_[nr++] = free_index_[c];
+      dofs = remaining_index_.data();
+    }
+    const bool leading = elimination.kept_rows_are_leading();
+    np = scale_rows(J, gradient, dofs, nr, reused || !leading ? m : elimination.num_kept());
+    if (reused && !elimination.eliminated_rows_vanish(J, H, ld, np)) {
+      reused = false;
+      continue;
+    }
+    for (int j = 0; j < elimination.num_kept() && !leading; ++j) {  // move the kept rows forward
+      const int from = elimination.kept_row(j);
+      if (from != j) std::copy_n(H + from * ld, np, H + j * ld);
+    }
+    const int single_rows = find_row_ends(elimination.num_kept(), nr);
+    if (reused && single_rows > 0 && !elimination.kept_rows_stay(J, H, ld, extent_.data())) {
+      reused = false;
+      continue;
+    }
+    break;
+  }
+  elimination.find_couplings(J, range_.data());
+  return np;
+}
+
 std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& J,
                                        const Eigen::Ref<const Eigen::VectorXd>& xdot,
                                        const Eigen::Ref<const Eigen::VectorXd>& gradient) {
@@ -224,91 +320,97 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
     out_.min_singular_value = std::numeric_limits<double>::infinity();
     return flags;
   }
-  // Task rows as contiguous columns over the free dofs: H = W^-1/2 J^T (nf x m, zero-padded
-  // to np, a multiple of four, for the two- and four-lane kernels). One scaled copy serves
-  // all products: A = J W^-1 J^T = H^T H, J W^-1 g = H^T (W^-1/2 g), W^-1 J^T y = W^-1/2 H y.
-  const int np = (nf + 3) & ~3;
+  // Rows on a single free dof (joint rows) are eliminated exactly (unit_row_elimination.hpp):
+  // undamped, their dofs take the commanded rates and leave the system of the kept rows,
+  // which is solved over the other free dofs (mk x mk instead of m x m).
+  // The kept rows become contiguous columns over the remaining free dofs: H = W^-1/2 J^T
+  // (nr x mk, zero-padded to np, a multiple of four, for the two- and four-lane kernels).
+  // One scaled copy serves all products: A = J W^-1 J^T = H^T H, J W^-1 g = H^T (W^-1/2 g),
+  // W^-1 J^T y = W^-1/2 H y.
+  internal::UnitRowElimination& elimination = *elimination_;
   const Eigen::Index ld = H_.outerStride();
-  double* __restrict__ H = H_.data();
-  const double* zero = zero_column_.data();
-  for (int c = 0; c < np; c += 2) {
-    const int k0 = c < nf ? free_index_[c] : -1;
-    const int k1 = c + 1 < nf ? free_index_[c + 1] : -1;
-    internal::scaled_transpose_two_columns(k0 >= 0 ? J.data() + k0 * J.outerStride() : zero,
-                                           k1 >= 0 ? J.data() + k1 * J.outerStride() : zero,
-                                           k0 >= 0 ? range_[k0] : 0.0, k1 >= 0 ? range_[k1] : 0.0, m, H + c, ld);
-    gradient_free_[c] = k0 >= 0 ? range_[k0] * gradient[k0] : 0.0;
-    gradient_free_[c + 1] = k1 >= 0 ? range_[k1] * gradient[k1] : 0.0;
-  }
-  // Where each task row ends: the virtual dofs come first in every model and the limbs
-  // after them, so hand and head rows end well before the last dof; A's sums skip the
-  // zeros behind (exactly: they add nothing).
-  for (int i = 0; i < m; ++i) {
-    const double* row = H + i * ld;
-    int e = nf;
-    while (e > 0 && row[e - 1] == 0.0) --e;
-    extent_[i] = e;
-  }
+  const double* H = H_.data();
+  int nr = nf;
+  const int* dofs = free_index_.data();  // the remaining free dofs
+  const int np = prepare_rows(J, gradient, nf, nr, dofs);
+  const int p = elimination.num_eliminated();
+  const int mk = elimination.num_kept();
   // A = H^T H (lower triangle).
-  gram_(H, H, ld, m, np, extent_.data(), A_.data(), A_.outerStride());
+  gram_(H, H, ld, mk, np, extent_.data(), A_.data(), A_.outerStride());
   // u = J W^-1 dH/dq = H^T (W^-1/2 dH/dq), two rows at a time.
-  for (int i = 0; i < m; i += 2) {
-    const int i1 = std::min(i + 1, m - 1);
+  for (int i = 0; i < mk; i += 2) {
+    const int i1 = std::min(i + 1, mk - 1);
     double s[2];
     internal::two_dot_products(gradient_free_.data(), H + i * ld, H + i1 * ld, np, s);
     u_rhs_[i] = s[0];
     u_rhs_[i1] = s[1];
   }
 
-  // The smallest eigenvalue of A (sigma_min^2) by inverse iteration; its last step shares
-  // the pass over the factor with the two solves, which are repeated only when damping.
-  auto y = y_.head(m);
-  auto u = u_.head(m);
+  // The smallest eigenvalue of the full A (sigma_min^2) by inverse iteration (with the
+  // eliminated rows: through the Schur complement); its last step shares the pass over the
+  // factor with the two solves, which are repeated only when damping.
   double lambda_min = 0.0;
-  if (factorize(m)) {
+  if (factorize(mk)) {
     const int steps = start_inverse_iteration(m);
     for (int k = 1; k < steps; ++k) {
-      double* const rhs[1] = {v_.data()};
-      solve_in_place<1>(m, rhs);
+      if (p > 0) elimination.reduce(v_.data(), z_.data(), 0.0);
+      double* const rhs[1] = {p > 0 ? z_.data() : v_.data()};
+      solve_in_place<1>(mk, rhs);
+      if (p > 0) elimination.expand(v_.data(), z_.data(), v_.data(), 0.0);
       normalize_iterate(m);
     }
-    y = xdot;
-    u = u_rhs_.head(m);
-    double* const rhs[3] = {y_.data(), u_.data(), v_.data()};
-    solve_in_place<3>(m, rhs);
+    if (p > 0) {
+      elimination.reduce(xdot.data(), y_.data(), 0.0);
+      elimination.reduce(v_.data(), z_.data(), 0.0);
+    } else {
+      y_.head(m) = xdot;
+    }
+    u_.head(mk) = u_rhs_.head(mk);
+    double* const rhs[3] = {y_.data(), u_.data(), p > 0 ? z_.data() : v_.data()};
+    solve_in_place<3>(mk, rhs);
+    if (p > 0) elimination.expand(v_.data(), z_.data(), v_.data(), 0.0);
     // |A^-1 v| <= 1 / lambda_min, with equality for the converged eigenvector.
     lambda_min = 1.0 / normalize_iterate(m);
   }
   last_estimate_ = lambda_min;
   out_.min_singular_value = std::sqrt(std::max(lambda_min, 0.0));
   const double eps2 = parameters_.singular_threshold * parameters_.singular_threshold;
+  double mu2 = 0.0;  // damping lambda^2
   if (lambda_min < eps2) {
     flags |= kDamped;
-    auto A = A_.topLeftCorner(m, m);
     const double max2 = parameters_.max_damping * parameters_.max_damping;
-    double damping2 = max2 * (1.0 - std::max(lambda_min, 0.0) / eps2);
-    A.diagonal().array() += damping2;
-    if (!factorize(m)) {
-      A.diagonal().array() += max2 - damping2;
-      damping2 = max2;
-      factorize(m);
+    mu2 = max2 * (1.0 - std::max(lambda_min, 0.0) / eps2);
+    elimination.add_damping(A_.data(), A_.outerStride(), mu2, 0.0);  // A + mu^2 E (its Schur complement)
+    if (!factorize(mk)) {
+      elimination.add_damping(A_.data(), A_.outerStride(), max2, mu2);
+      mu2 = max2;
+      factorize(mk);
     }
-    out_.damping = std::sqrt(damping2);
-    y = xdot;
-    u = u_rhs_.head(m);
+    out_.damping = std::sqrt(mu2);
+    if (p > 0)
+      elimination.reduce(xdot.data(), y_.data(), mu2);
+    else
+      y_.head(m) = xdot;
+    u_.head(mk) = u_rhs_.head(mk);
+    elimination.add_damped_gradient(gradient.data(), range_.data(), u_.data(), mu2);
     double* const rhs[2] = {y_.data(), u_.data()};
-    solve_in_place<2>(m, rhs);
+    solve_in_place<2>(mk, rhs);
   }
   // W^-1 J^T y = W^-1/2 H y and W^-1 J^T u = W^-1/2 H u over the free dofs.
   const double* task = task_free_.data();
   const double* null = null_free_.data();
-  transpose_products_(H, ld, m, np, y_.data(), u_.data(), task_free_.data(), null_free_.data());
+  transpose_products_(H, ld, mk, np, y_.data(), u_.data(), task_free_.data(), null_free_.data());
   out_.qdot_task.setZero();
   out_.qdot_null = g_;
-  for (int c = 0; c < nf; ++c) {
-    const int k = free_index_[c];
+  for (int c = 0; c < nr; ++c) {
+    const int k = dofs[c];
     out_.qdot_task[k] = range_[k] * task[c];
     out_.qdot_null[k] -= range_[k] * null[c];
+  }
+  for (int e = 0; e < p; ++e) {
+    const int k = elimination.eliminated_dof(e);
+    out_.qdot_task[k] = range_[k] * elimination.task_entry(e, y_.data(), xdot.data(), mu2);
+    out_.qdot_null[k] = range_[k] * elimination.null_entry(e, u_.data(), range_[k] * gradient[k], mu2);
   }
   out_.qdot_null *= -parameters_.nullspace_gain;
   return flags;

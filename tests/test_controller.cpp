@@ -16,6 +16,7 @@
 #include "wbm/paper_model.hpp"
 #include "wbm/tasks/axis_task.hpp"
 #include "wbm/tasks/com_task.hpp"
+#include "wbm/tasks/joint_task.hpp"
 #include "wbm/tasks/position_task.hpp"
 #include "wbm/trajectory_filter.hpp"
 
@@ -35,6 +36,10 @@ TEST(Controller, CycleAllocatesNothing) {
     c.add_task(std::make_unique<AxisTask>(model, "l_grasp", entry.left_hand, "heel"));
     c.add_task(std::make_unique<PositionTask>(model, "r_hand", entry.right_hand));
     c.add_task(std::make_unique<AxisTask>(model, "r_grasp", entry.right_hand));
+    // Joint rows between the others: the solver eliminates them (unit_row_elimination.hpp).
+    const int n = model.num_dofs();
+    c.add_task(std::make_unique<JointTask>(
+        model, "posture", std::vector<std::string>{model.dof(n - 1).name, model.dof(n - 3).name}));
     c.add_task(std::make_unique<CenterOfMassTask>(model, "com", "heel"));
     c.reset(model.home());
     Command cmd = c.make_command();

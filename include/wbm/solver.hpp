@@ -5,6 +5,7 @@
 /// clamping (IV.E).
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include <Eigen/Core>
@@ -13,6 +14,9 @@
 #include "wbm/task_stack.hpp"
 
 namespace wbm {
+namespace internal {
+class UnitRowElimination;
+}
 
 struct SolverParameters {
   /// Null-space step width alpha of eq. (5) [1/s with the criteria of this library].
@@ -77,11 +81,17 @@ struct SolverOutput {
 /// lambda^2 = lambda_max^2 (1 - sigma_min^2 / eps^2) (singularity-robust inverse, Nakamura
 /// 1986): lambda is continuous in the configuration and J J# = E holds exactly away from
 /// singularities. More rows than free dofs make A singular and take the same path.
+///
+/// Rows with one non-zero entry among the free dofs (joint rows) are solved exactly by
+/// block elimination instead of inside A (same result up to rounding; docs/solver.md).
 class WholeBodySolver {
  public:
   /// @param max_rows the largest number of task rows that will be passed.
   /// @throws ConfigError for invalid parameters.
   WholeBodySolver(const Model& model, int max_rows, const SolverParameters& parameters = {});
+  ~WholeBodySolver();
+  WholeBodySolver(const WholeBodySolver&) = delete;
+  WholeBodySolver& operator=(const WholeBodySolver&) = delete;
 
   const SolverParameters& parameters() const { return parameters_; }
   /// @throws ConfigError for invalid parameters.
@@ -111,6 +121,17 @@ class WholeBodySolver {
   /// Unscaled task and null-space parts for the dofs in free_; returns status flags.
   std::uint32_t resolve(const Eigen::Ref<const Eigen::MatrixXd>& J, const Eigen::Ref<const Eigen::VectorXd>& xdot,
                         const Eigen::Ref<const Eigen::VectorXd>& gradient);
+  /// H = W^-1/2 J^T for the nf dofs dofs[...] and the first `columns` rows of J, and
+  /// W^-1/2 dH/dq; returns nf rounded up to a multiple of four (the zero padding).
+  int scale_rows(const Eigen::Ref<const Eigen::MatrixXd>& J, const Eigen::Ref<const Eigen::VectorXd>& gradient,
+                 const int* dofs, int nf, int columns);
+  /// extent_[i] = 1 + the last of the nf dofs with a non-zero entry in column i of H (i < m);
+  /// returns the number of columns with one non-zero entry or none.
+  int find_row_ends(int m, int nf);
+  /// Finds the eliminated (joint) rows and builds H over the remaining free dofs (nr of
+  /// them, dofs[...]) for the kept rows, with their row ends; returns the padded dof count.
+  int prepare_rows(const Eigen::Ref<const Eigen::MatrixXd>& J, const Eigen::Ref<const Eigen::VectorXd>& gradient,
+                   int nf, int& nr, const int*& dofs);
   bool factorize(int m);
   /// Solves A x = b in place with the factor for K right-hand sides at once.
   template <int K>
@@ -129,11 +150,13 @@ class WholeBodySolver {
   /// Kernel of H y and H u, chosen likewise.
   void (*transpose_products_)(const double* Jwt, Eigen::Index ld, int m, int n, const double* y1, const double* y2,
                               double* x1, double* x2);
+  std::unique_ptr<internal::UnitRowElimination> elimination_;  // joint rows, solved exactly outside A
   Mask free_;                 // b_C, plus dofs frozen at their limits
   Eigen::VectorXd w_;         // W^-1 diagonal with frozen dofs zeroed
   Eigen::VectorXd range_;     // r_i: W^-1 = diag(r_i^2)
   Eigen::VectorXd range_sq_;  // r_i^2
   std::vector<int> free_index_;  // the free dofs, in order
+  std::vector<int> remaining_index_;  // the free dofs without those of eliminated rows
   std::vector<int> extent_;      // per task row: 1 + its last free dof with a non-zero entry
   // Over the free dofs, zero-padded to a multiple of four: H = W^-1/2 J^T ((n+3) x m),
   // W^-1/2 dH/dq, H y and H u.
@@ -145,7 +168,7 @@ class WholeBodySolver {
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> L_, E_;
   Eigen::VectorXd pivot_;             // running pivots during the factorisation
   Eigen::VectorXd inverse_diagonal_;  // D^-1
-  Eigen::VectorXd y_, v_, g_, u_, u_rhs_;
+  Eigen::VectorXd y_, v_, g_, u_, u_rhs_, z_;  // z_: the kept part of v
   Eigen::VectorXd previous_null_;
   int previous_rows_ = -1;
   double last_estimate_ = 0.0;
