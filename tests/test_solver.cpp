@@ -28,10 +28,7 @@ using namespace wbm;
 using Eigen::MatrixXd;
 using Eigen::VectorXd;
 
-int property_cases() {
-  const char* env = std::getenv("WBM_PROPERTY_CASES");
-  return env ? std::max(1, std::atoi(env)) : 10000;
-}
+using wbm_test::property_cases;
 
 std::string describe(const VectorXd& q, const Mask& rows, const Mask& free) {
   std::ostringstream out;

@@ -4,7 +4,6 @@
 // the plain formulas of eq. (5)-(7) with Eigen, the smallest singular value against an SVD,
 // and a solver that reuses the previous cycle's rows against a fresh one.
 // WBM_PROPERTY_CASES=<n> runs n cases per property instead of 10^4.
-#include <cstdlib>
 #include <random>
 #include <sstream>
 
@@ -12,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "shipped_models.hpp"
+#include "test_util.hpp"
 #include "wbm/paper_model.hpp"
 #include "wbm/solver.hpp"
 
@@ -21,10 +21,7 @@ using namespace wbm;
 using Eigen::MatrixXd;
 using Eigen::VectorXd;
 
-int property_cases() {
-  const char* env = std::getenv("WBM_PROPERTY_CASES");
-  return env ? std::max(1, std::atoi(env)) : 10000;
-}
+using wbm_test::property_cases;
 
 struct Problem {
   MatrixXd J;

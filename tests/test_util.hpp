@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <numeric>
 #include <random>
 #include <sstream>
@@ -28,6 +29,12 @@ inline Eigen::VectorXd random_configuration(const wbm::Model& model, std::mt1993
     q[i] = std::uniform_real_distribution<double>(lo, hi)(rng);
   }
   return q;
+}
+
+/// Cases per seeded property test: 10^4, or WBM_PROPERTY_CASES=<n>.
+inline int property_cases() {
+  const char* env = std::getenv("WBM_PROPERTY_CASES");
+  return env ? std::max(1, std::atoi(env)) : 10000;
 }
 
 /// Random unit vector of dimension n.
