@@ -1,6 +1,8 @@
 #include "unit_row_elimination.hpp"
 
-#include <cmath>
+#include <algorithm>
+#include <bit>
+#include <cstdint>
 
 namespace wbm::internal {
 
@@ -68,17 +70,20 @@ bool UnitRowElimination::reuse_rows(const Eigen::Ref<const Eigen::MatrixXd>& J, 
 
 bool UnitRowElimination::rows_vanish(const Eigen::Ref<const Eigen::MatrixXd>& J, const double* H, Eigen::Index ld,
                                      int np) const {
-  // Sums of absolute values: zero exactly when every entry is (no underflow, NaN stays NaN).
-  double sum = 0.0;
+  // The bits of all entries without their signs, or-ed: zero exactly when every entry is +-0
+  // (NaN and inf are not). Integer or-s have no long dependency chain, unlike a
+  // floating-point sum, and may be vectorised.
+  constexpr std::uint64_t kNoSign = ~(std::uint64_t{1} << 63);
+  std::uint64_t bits = 0;
   const double* data = J.data();
   const Eigen::Index ldj = J.outerStride();
   for (int k = 0; k < p_; ++k) {
     const double* column = H + row_[k] * ld;
-    for (int c = 0; c < np; ++c) sum += std::abs(column[c]);
+    for (int c = 0; c < np; ++c) bits |= std::bit_cast<std::uint64_t>(column[c]);
     for (int e = 0; e < p_; ++e)  // the other eliminated rows' dofs
-      sum += e != k ? std::abs(data[row_[k] + dof_[e] * ldj]) : 0.0;
+      if (e != k) bits |= std::bit_cast<std::uint64_t>(data[row_[k] + dof_[e] * ldj]);
   }
-  return sum == 0.0;
+  return (bits & kNoSign) == 0;
 }
 
 bool UnitRowElimination::kept_rows_stay(const Eigen::Ref<const Eigen::MatrixXd>& J, const double* H,
@@ -108,7 +113,10 @@ void UnitRowElimination::gather_couplings(const Eigen::Ref<const Eigen::MatrixXd
     const double r = range[dof_[k]];
     const double* column = J.data() + dof_[k] * J.outerStride();
     double* b = &b_(k, 0);
-    for (int j = 0; j < m_kept_; ++j) b[j] = r * column[kept_rows_[j]];
+    if (kept_leading_)
+      for (int j = 0; j < m_kept_; ++j) b[j] = r * column[j];
+    else
+      for (int j = 0; j < m_kept_; ++j) b[j] = r * column[kept_rows_[j]];
   }
 }
 
@@ -125,7 +133,10 @@ double UnitRowElimination::coupling_dot(int k, const double* x) const {
 }
 
 void UnitRowElimination::reduce(const double* f, double* __restrict__ z, double mu2) const {
-  for (int j = 0; j < m_kept_; ++j) z[j] = f[kept_rows_[j]];
+  if (kept_leading_)
+    std::copy_n(f, m_kept_, z);
+  else
+    for (int j = 0; j < m_kept_; ++j) z[j] = f[kept_rows_[j]];
   for (int k = 0; k < p_; ++k) {
     const double c = f[row_[k]] * h_over_dd(k, mu2);
     const double* __restrict__ b = &b_(k, 0);
