@@ -218,10 +218,12 @@ TEST(Solver, NullSpaceMotionDoesNotMoveTheTask) {
 /// switching at random cycles, NaN targets now and then. Every cycle: no NaN, positions
 /// within limits, speeds within limits, frozen dofs exactly still.
 void random_controller_run(const Model& model, const std::string& l, const std::string& r, const std::string& head,
-                           unsigned seed, int cycles) {
+                           unsigned seed, int cycles, const std::vector<std::string>& posture = {}) {
   Controller c(model);
   c.add_task(std::make_unique<PositionTask>(model, "l_hand", l));
   c.add_task(std::make_unique<AxisTask>(model, "l_grasp", l));
+  // Joint rows between the others (eliminated by the solver; their dofs also reach limits).
+  if (!posture.empty()) c.add_task(std::make_unique<JointTask>(model, "posture", posture));
   c.add_task(std::make_unique<PositionTask>(model, "r_hand", r));
   c.add_task(std::make_unique<AxisTask>(model, "r_grasp", r));
   if (!head.empty()) c.add_task(std::make_unique<AxisTask>(model, "view", head));
@@ -259,6 +261,12 @@ TEST(Controller, RandomRunsKeepLimitsPaperModel) {
 TEST(Controller, RandomRunsKeepLimitsG1) {
   const wbm_test::ShippedModel& g1 = wbm_test::shipped_model("g1_29dof");
   random_controller_run(g1.load(), g1.left_hand, g1.right_hand, g1.head, 2, property_cases());
+}
+
+TEST(Controller, RandomRunsKeepLimitsWithJointRows) {
+  const wbm_test::ShippedModel& g1 = wbm_test::shipped_model("g1_29dof");
+  random_controller_run(g1.load(), g1.left_hand, g1.right_hand, g1.head, 3, property_cases(),
+                        {"waist_yaw_joint", "left_shoulder_yaw_joint", "right_wrist_roll_joint"});
 }
 
 /// phi of eq. (15) between the frame's z-axis and a target, for finite differences.
