@@ -20,9 +20,9 @@
 // timing; the process fails (exit 1) only if a fixture's sanity check fails.
 //
 // Own flags (before Google Benchmark's): --wbm_urdf=FILE --wbm_root=LINK --wbm_legs=A,B
-// --wbm_hands=LEFT,RIGHT [--wbm_head=FRAME] [--wbm_default_limits] [--wbm_drop_legs]
-// [--wbm_root_height=H] [--wbm_id=NAME] register a fixture "<NAME>" (default "custom") on
-// that model; scripts/bench.sh wraps this.
+// --wbm_hands=LEFT,RIGHT [--wbm_head=FRAME] [--wbm_com] [--wbm_posture=DOF,DOF,...]
+// [--wbm_default_limits] [--wbm_drop_legs] [--wbm_root_height=H] [--wbm_id=NAME] register a
+// fixture "<NAME>" (default "custom") on that model; scripts/bench.sh wraps this.
 #include <unistd.h>
 
 #include <algorithm>
@@ -71,7 +71,8 @@ bool parse_own_flags(int& argc, char** argv, FixtureSpec& custom, std::string& e
   argc = out;
   argv[argc] = nullptr;
   if (flags.empty()) return false;
-  static const char* known[] = {"urdf", "root", "legs", "hands", "head", "default_limits", "drop_legs", "root_height", "id"};
+  static const char* known[] = {"urdf",      "root",        "legs",        "hands", "head", "com", "posture",
+                                "default_limits", "drop_legs", "root_height", "id"};
   for (const auto& [name, value] : flags)
     if (std::none_of(std::begin(known), std::end(known), [&](const char* k) { return name == k; })) {
       error = "unknown flag --wbm_" + name;
@@ -94,6 +95,13 @@ bool parse_own_flags(int& argc, char** argv, FixtureSpec& custom, std::string& e
   if (flags.count("root_height")) options.root_height = std::stod(flags["root_height"]);
   const std::string id = flags.count("id") ? flags["id"] : "custom";
   custom = wbm_bench::custom_fixture(id, flags["urdf"], options, hands[0], hands[1], flags["head"]);
+  custom.com = flags.count("com") > 0;
+  custom.joint_task = split(flags["posture"], ',');
+  if (custom.com || !custom.joint_task.empty())
+    custom.description = flags["urdf"] + ": hands position + grasp axis" + (flags["head"].empty() ? "" : ", head view axis") +
+                         (custom.com ? ", centre of mass (heel)" : "") +
+                         (custom.joint_task.empty() ? "" : ", posture of " + flags["posture"]) + " (" +
+                         std::to_string(custom.rows()) + " rows)";
   return true;
 }
 

@@ -5,15 +5,18 @@
 #   scripts/bench.sh --short              the same, short (a few seconds)
 #   scripts/bench.sh --scaling            scaling study; rewrites bench/results/scaling.{csv,svg,md}
 #   scripts/bench.sh ROBOT.urdf --hands LEFT,RIGHT [--head FRAME] [--root LINK] [--legs A,B]
+#                    [--com] [--posture DOF,DOF,...]
 #                    [--default-limits] [--drop-legs] [--root-height H] [--short]
 #                                         your robot: both hands position + grasp axis and the
-#                                         head's view axis (12 rows; 10 without --head), with
+#                                         head's view axis (12 rows; 10 without --head), the
+#                                         centre of mass (3 rows) and joint rows if asked, with
 #                                         KDL's wdls and arm-chain solvers on the same URDF
 #   ... -- ARGS                           extra Google Benchmark flags, e.g.
 #                                         -- --benchmark_repetitions=5 --benchmark_filter=paper_r12
 #
 # The binary is taken from $BUILD_DIR (default: build) and built there if it is missing.
 set -euo pipefail
+caller_dir="$PWD"
 cd "$(dirname "$0")/.."
 
 build_dir="${BUILD_DIR:-build}"
@@ -23,7 +26,7 @@ short=0
 own=()
 extra=()
 
-usage() { sed -n '2,17p' "$0" | sed 's/^# \{0,1\}//'; exit "${1:-0}"; }
+usage() { awk 'NR > 1 && /^#/ { sub(/^# ?/, ""); print; next } NR > 1 { exit }' "$0"; exit "${1:-0}"; }
 
 while [[ $# -gt 0 ]]; do
   case "$1" in
@@ -35,6 +38,8 @@ while [[ $# -gt 0 ]]; do
     --legs) own+=("--wbm_legs=$2"); shift ;;
     --hands) own+=("--wbm_hands=$2"); shift ;;
     --head) own+=("--wbm_head=$2"); shift ;;
+    --com) own+=("--wbm_com") ;;
+    --posture) own+=("--wbm_posture=$2"); shift ;;
     --root-height) own+=("--wbm_root_height=$2"); shift ;;
     --default-limits) own+=("--wbm_default_limits") ;;
     --drop-legs) own+=("--wbm_drop_legs") ;;
@@ -59,11 +64,12 @@ args=()
 [[ $short -eq 1 ]] && args+=(--benchmark_min_time=0.01)
 
 if [[ -n "$urdf" ]]; then
+  [[ "$urdf" == /* || -f "$urdf" ]] || urdf="$caller_dir/$urdf"  # relative to where it was called from
   [[ -f "$urdf" ]] || { echo "bench.sh: no such file: $urdf" >&2; exit 2; }
   printf '%s\n' "${own[@]}" | grep -q -- '--wbm_hands=' || { echo "bench.sh: --hands LEFT,RIGHT is required" >&2; exit 2; }
   exec "$bin" "--wbm_urdf=$urdf" "${own[@]}" --wbm_id=custom --benchmark_filter='^custom/' "${args[@]}" "${extra[@]}"
 fi
-if [[ ${#own[@]} -gt 0 ]]; then echo "bench.sh: --root/--legs/--hands/--head need a URDF file" >&2; exit 2; fi
+if [[ ${#own[@]} -gt 0 ]]; then echo "bench.sh: --root/--legs/--hands/--head/--com/--posture need a URDF file" >&2; exit 2; fi
 
 if [[ "$mode" == "scaling" ]]; then
   json="$(mktemp --suffix=.json)"
