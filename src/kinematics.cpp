@@ -112,7 +112,7 @@ void rotational_jacobian(const Model& model, const Data& data, int body, Eigen::
 
 void frame_jacobian(const Model& model, const Data& data, int frame, Eigen::Ref<Eigen::MatrixXd> J) {
   const Frame& f = model.frames()[frame];
-  const Vector3 p_WF = data.X_WB[f.body] * f.X_BF.p;
+  const Vector3 p_WF = frame_position(model, data, frame);
   const ColumnWriter w = clear(J);
   const Body* bodies = model.bodies().data();
   for (const int b : model.moving_bodies(f.body)) {

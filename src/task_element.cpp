@@ -61,8 +61,7 @@ Matrix3 RelativeFrame::reference_rotation(const Model& model, const Data& data) 
 }
 
 Vector3 RelativeFrame::position(const Model& model, const Data& data) const {
-  const Frame& f = model.frames()[frame_];
-  const Vector3 p_WF = data.X_WB[f.body] * f.X_BF.p;
+  const Vector3 p_WF = frame_position(model, data, frame_);
   if (reference_ < 0) return p_WF;
   const Transform X_WR = frame_pose(model, data, reference_);
   return X_WR.R.transpose() * (p_WF - X_WR.p);
@@ -82,9 +81,8 @@ Transform RelativeFrame::pose(const Model& model, const Data& data) const {
 }
 
 void RelativeFrame::translational_jacobian(const Model& model, const Data& data, Eigen::Ref<Eigen::MatrixXd> J) {
-  const Frame& f = model.frames()[frame_];
-  const Vector3 p_WF = data.X_WB[f.body] * f.X_BF.p;
-  point_jacobian(model, data, f.body, p_WF, J);
+  const Vector3 p_WF = frame_position(model, data, frame_);
+  point_jacobian(model, data, model.frames()[frame_].body, p_WF, J);
   if (reference_ >= 0) express_point_jacobian_in_frame(model, data, reference_, p_WF, J);
 }
 

@@ -18,22 +18,18 @@ UnitRowElimination::UnitRowElimination(int num_dofs, int max_rows)
 }
 
 void UnitRowElimination::find(const Eigen::Ref<const Eigen::MatrixXd>& J, const double* H, Eigen::Index ld,
-                              const int* extent, const int* free_index) {
+                              const int* extent, const char* single, const int* free_index) {
   for (int k = 0; k < p_; ++k) row_of_dof_[dof_[k]] = -1;
   const int m = static_cast<int>(J.rows());
   p_ = 0;
   m_kept_ = 0;
   for (int i = 0; i < m; ++i) {
-    // A row's last non-zero entry is at extent - 1; it is a unit row if none comes before
-    // (the scan stops at the first non-zero entry: at once for most task rows).
-    const double* row = H + i * ld;
+    // A unit row: its only non-zero entry is the last one, at extent - 1.
     const int last = extent[i] - 1;
-    int first = 0;
-    while (first < last && row[first] == 0.0) ++first;
     bool eliminated = false;
-    if (last >= 0 && first == last) {
+    if (last >= 0 && single[i]) {
       const int dof = free_index[last];
-      const double h = row[last];
+      const double h = H[i * ld + last];
       if (row_of_dof_[dof] < 0 && h * h > 1e-200) {  // false for NaN: such a row stays a kept row
         eliminated = true;
         row_of_dof_[dof] = i;
@@ -86,24 +82,15 @@ bool UnitRowElimination::rows_vanish(const Eigen::Ref<const Eigen::MatrixXd>& J,
   return (bits & kNoSign) == 0;
 }
 
-bool UnitRowElimination::kept_rows_stay(const Eigen::Ref<const Eigen::MatrixXd>& J, const double* H,
-                                        Eigen::Index ld, const int* extent) const {
+bool UnitRowElimination::kept_rows_stay(const Eigen::Ref<const Eigen::MatrixXd>& J, const int* extent,
+                                        const char* single) const {
   for (int j = 0; j < m_kept_; ++j) {
-    const int last = extent[j] - 1;
-    if (last < 0) {  // zero over the remaining dofs: a unit row if non-zero at one eliminated dof
-      int count = 0;
-      for (int k = 0; k < p_; ++k) count += J(kept_rows_[j], dof_[k]) != 0.0;
-      if (count == 1) return false;
-      continue;
-    }
-    const double* column = H + j * ld;
-    int first = 0;
-    while (first < last && column[first] == 0.0) ++first;
-    if (first == last) {  // one non-zero entry among the remaining dofs
-      bool elsewhere = false;
-      for (int k = 0; k < p_; ++k) elsewhere |= J(kept_rows_[j], dof_[k]) != 0.0;
-      if (!elsewhere) return false;
-    }
+    if (!single[j]) continue;
+    // At most one non-zero entry among the remaining dofs (none if extent 0): a unit row if
+    // the entries at the eliminated rows' dofs make it exactly one in all.
+    int count = extent[j] > 0 ? 1 : 0;
+    for (int k = 0; k < p_; ++k) count += J(kept_rows_[j], dof_[k]) != 0.0;
+    if (count == 1) return false;
   }
   return true;
 }

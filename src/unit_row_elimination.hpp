@@ -42,10 +42,10 @@ class UnitRowElimination {
 
   /// Finds the eliminated rows of J (m x n, m <= max_rows). H = W^-1/2 J^T over the free dofs
   /// free_index[...] (column i: row i of J; leading dimension ld); row i has its last
-  /// non-zero entry at extent[i] - 1 (none if 0). Never allocates (nor do the other
-  /// functions).
+  /// non-zero entry at extent[i] - 1 (none if 0) and single[i] is true if it has at most
+  /// one. Never allocates (nor do the other functions).
   void find(const Eigen::Ref<const Eigen::MatrixXd>& J, const double* H, Eigen::Index ld, const int* extent,
-            const int* free_index);
+            const char* single, const int* free_index);
   /// Keeps the previous rows if J has as many rows and each eliminated row's dof is still
   /// free (free[d]) with an entry h_k as required; false (nothing kept) otherwise.
   bool reuse(const Eigen::Ref<const Eigen::MatrixXd>& J, const bool* free, const double* range) {
@@ -59,10 +59,10 @@ class UnitRowElimination {
                               int np) const {
     return p_ == 0 || rows_vanish(J, H, ld, np);
   }
-  /// After reuse(), with H compacted to the kept rows and extent[j] their row ends: true if
-  /// no kept row is a unit row (of a remaining free dof, or of an eliminated row's dof).
-  bool kept_rows_stay(const Eigen::Ref<const Eigen::MatrixXd>& J, const double* H, Eigen::Index ld,
-                      const int* extent) const;
+  /// After reuse(), with H compacted to the kept rows, extent[j] their row ends and single[j]
+  /// whether they have at most one non-zero entry over the remaining dofs: true if no kept
+  /// row is a unit row (of a remaining free dof, or of an eliminated row's dof).
+  bool kept_rows_stay(const Eigen::Ref<const Eigen::MatrixXd>& J, const int* extent, const char* single) const;
   /// The couplings b_k from J, once the rows are settled.
   void find_couplings(const Eigen::Ref<const Eigen::MatrixXd>& J, const double* range) {
     if (p_ > 0) gather_couplings(J, range);

@@ -33,6 +33,12 @@ inline Transform frame_pose(const Model& model, const Data& data, int frame) {
   return data.X_WB[f.body] * f.X_BF;
 }
 
+/// Position of a named frame in the world, p_WF (frame_pose().p without the rotation product).
+inline Vector3 frame_position(const Model& model, const Data& data, int frame) {
+  const Frame& f = model.frames()[frame];
+  return data.X_WB[f.body] * f.X_BF.p;
+}
+
 /// Translational Jacobian (3 x nq) of point Q fixed to `body`, given in the world:
 /// column i is a_i x (p_WQ - p_i) for revolute and a_i for prismatic joints (eq. 13).
 /// `J` is overwritten.

@@ -125,8 +125,8 @@ class WholeBodySolver {
   /// W^-1/2 dH/dq; returns nf rounded up to a multiple of four (the zero padding).
   int scale_rows(const Eigen::Ref<const Eigen::MatrixXd>& J, const Eigen::Ref<const Eigen::VectorXd>& gradient,
                  const int* dofs, int nf, int columns);
-  /// extent_[i] = 1 + the last of the nf dofs with a non-zero entry in column i of H (i < m);
-  /// returns the number of columns with one non-zero entry or none.
+  /// extent_[i] = 1 + the last of the nf dofs with a non-zero entry in column i of H (i < m),
+  /// single_entry_[i] whether it has one non-zero entry or none; returns how many have.
   int find_row_ends(int m, int nf);
   /// Finds the eliminated (joint) rows and builds H over the remaining free dofs (nr of
   /// them, dofs[...]) for the kept rows, with their row ends; returns the padded dof count.
@@ -158,6 +158,7 @@ class WholeBodySolver {
   std::vector<int> free_index_;  // the free dofs, in order
   std::vector<int> remaining_index_;  // the free dofs without those of eliminated rows
   std::vector<int> extent_;      // per task row: 1 + its last free dof with a non-zero entry
+  std::vector<char> single_entry_;  // per task row: at most one non-zero entry in H
   // Over the free dofs, zero-padded to a multiple of four: H = W^-1/2 J^T ((n+3) x m),
   // W^-1/2 dH/dq, H y and H u.
   Eigen::MatrixXd H_;
