@@ -12,6 +12,8 @@
 
 #include <Eigen/Core>
 
+#include "wbm/kinematics.hpp"
+
 namespace wbm::internal {
 
 inline constexpr double kSmallAngle = 0.1;
@@ -53,6 +55,33 @@ inline void small_angle_sincos(double x, double* sin_x, double* cos_x) {
   *sin_x = x * (s0 + y2 * (s1 + y2 * (1.0 / 362880)));
   const double c0 = 1.0 - y * 0.5, c1 = 1.0 / 24 - y * (1.0 / 720), c2 = 1.0 / 40320 - y * (1.0 / 3628800);
   *cos_x = c0 + y2 * (c1 + y2 * c2);
+}
+
+/// Sine and cosine of a joint angle [rad] of any size, for forward kinematics. Within 1/8 rad
+/// of the anchor (where libm was last called for this joint), the anchor's pair rotated by
+/// d = angle - anchor.angle: sin(a0 + d) = s0 + (s0 (cos d - 1) + c0 sin d), the cosine
+/// alike, with sin d and cos d - 1 by their Taylor series (the first omitted terms, d^11/11!
+/// and d^12/12!, are below 3e-18 for |d| <= 1/8). The anchor stays where libm was called, so
+/// the error does not build up over calls: libm's plus about one rounding of the sum (an
+/// absolute error below 2.5e-16; near a zero of sin or cos the relative error grows, which
+/// a rotation matrix does not feel). Otherwise (and for the NaN anchor of a fresh Data) libm,
+/// and the anchor moves there. A controller's joints move far less than 1/8 rad per cycle,
+/// so libm is called once a joint has travelled 1/8 rad.
+inline void anchored_sin_cos(double angle, Data::AngleAnchor& anchor, double& s, double& c) {
+  const double d = angle - anchor.angle;
+  if (std::abs(d) <= 0.125) {
+    const double z = d * d, z2 = z * z;
+    // sin d = d + d z p(z), cos d - 1 = z q(z), in Estrin's scheme.
+    const double p = (-1.0 / 6 + z * (1.0 / 120)) + z2 * (-1.0 / 5040 + z * (1.0 / 362880));
+    const double q = (-0.5 + z * (1.0 / 24)) + z2 * ((-1.0 / 720 + z * (1.0 / 40320)) + z2 * (-1.0 / 3628800));
+    const double sin_d = d + d * z * p, cos_d_minus_1 = z * q;
+    s = anchor.sin + (anchor.sin * cos_d_minus_1 + anchor.cos * sin_d);
+    c = anchor.cos + (anchor.cos * cos_d_minus_1 - anchor.sin * sin_d);
+    return;
+  }
+  s = std::sin(angle);
+  c = std::cos(angle);
+  anchor = {angle, s, c};
 }
 
 }  // namespace wbm::internal

@@ -2,15 +2,14 @@
 
 #include <cmath>
 
+#include "fast_trig.hpp"
 #include "zero_block.hpp"
 
 namespace wbm {
 namespace {
 
 /// Rotation by angle about a unit axis (Rodrigues), without Eigen's AngleAxis overhead.
-Matrix3 axis_rotation(const Vector3& u, double angle) {
-  const double s = std::sin(angle);
-  const double c = std::cos(angle);
+Matrix3 axis_rotation(const Vector3& u, double s, double c) {
   const double t = 1.0 - c;
   Matrix3 R;
   R << t * u.x() * u.x() + c, t * u.x() * u.y() - s * u.z(), t * u.x() * u.z() + s * u.y(),
@@ -32,7 +31,7 @@ void rotate_columns(Matrix3& R, int k, double s, double c) {
 
 Data::Data(const Model& model)
     : q(Eigen::VectorXd::Zero(model.num_dofs())), X_WB(model.num_bodies()), a_W(model.num_bodies(), Vector3::Zero()),
-      mc_W(model.num_bodies(), Vector3::Zero()) {}
+      mc_W(model.num_bodies(), Vector3::Zero()), angle_anchor(model.num_bodies()) {}
 
 void forward_kinematics(const Model& model, Data& data, const Eigen::Ref<const Eigen::VectorXd>& q) {
   data.q = q;
@@ -57,11 +56,13 @@ void forward_kinematics(const Model& model, Data& data, const Eigen::Ref<const E
     const double value = body.multiplier * q[body.dof] + body.offset;
     if (body.joint_type == JointType::kPrismatic) {
       X.p += data.a_W[b] * value;
-    } else if (code != 0) {
-      const double angle = code > 0 ? value : -value;
-      rotate_columns(X.R, std::abs(code) - 1, std::sin(angle), std::cos(angle));
     } else {
-      X.R = X.R * axis_rotation(body.axis, value);
+      double s, c;
+      internal::anchored_sin_cos(value, data.angle_anchor[b], s, c);
+      if (code != 0)
+        rotate_columns(X.R, std::abs(code) - 1, code > 0 ? s : -s, c);
+      else
+        X.R = X.R * axis_rotation(body.axis, s, c);
     }
   }
 }

@@ -17,6 +17,7 @@
 #include <gtest/gtest.h>
 
 #include "alloc_counter.hpp"
+#include "fast_trig.hpp"
 #include "shipped_models.hpp"
 #include "test_util.hpp"
 #include "wbm/errors.hpp"
@@ -310,7 +311,84 @@ TEST_P(Kinematics, EvaluationDoesNotAllocate) {
   EXPECT_TRUE(stacked.middleRows(3, 6).isApprox(J6_fixed));
 }
 
+// A Data reused along a trajectory (its joints' sines and cosines rotated from the anchors
+// of earlier calls, fast_trig.hpp) gives the poses of a fresh Data to the last bits: random
+// walks of up to 0.06 rad per dof and step, with jumps that move the anchors.
+TEST_P(Kinematics, ReusedDataAgreesWithAFreshOne) {
+  const ShippedModel& entry = GetParam();
+  const Model model = entry.load();
+  std::mt19937_64 rng(seed_for(entry.id) + 3);
+  std::uniform_real_distribution<double> step(-0.06, 0.06);
+  Data reused(model);
+  double worst = 0.0;
+  int anchored = 0;  // bodies whose sine and cosine came from an anchor
+  for (int walk = 0; walk < 20; ++walk) {
+    Eigen::VectorXd q = wbm_test::random_configuration(model, rng);
+    for (int k = 0; k < 100; ++k) {
+      for (int i = 0; i < q.size(); ++i) q[i] += step(rng);
+      wbm::forward_kinematics(model, reused, q);
+      Data fresh(model);
+      wbm::forward_kinematics(model, fresh, q);
+      for (int b = 0; b < model.num_bodies(); ++b) {
+        const double error = std::max((reused.X_WB[b].R - fresh.X_WB[b].R).cwiseAbs().maxCoeff(),
+                                      (reused.X_WB[b].p - fresh.X_WB[b].p).cwiseAbs().maxCoeff());
+        worst = std::max(worst, error);
+        ASSERT_LE(error, 1e-14) << entry.id << ": body " << model.body(b).name << ", walk " << walk << ", step " << k
+                                << "\n  q = " << wbm_test::describe_configuration(model, q);
+        anchored += reused.angle_anchor[b].angle != fresh.angle_anchor[b].angle;
+      }
+    }
+  }
+  std::cout << entry.id << ": largest pose difference " << worst << ", anchored sines " << anchored << "\n";
+  if (model.num_dofs() > 9) {
+    EXPECT_GT(anchored, 0) << "the anchors were never used";
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(Models, Kinematics, testing::ValuesIn(kinematic_cases()), case_name);
+
+// The anchored sine and cosine of forward kinematics against the library: inside the 1/8
+// rad window (boundary included) within 2.5e-16 and the anchor stays; outside it and for a
+// fresh (NaN) anchor the library's values exactly and the anchor moves. Long walks of small
+// steps show that the error does not build up.
+TEST(AnchoredSinCos, MatchesTheLibraryAndKeepsItsAnchor) {
+  std::mt19937_64 rng(41);
+  std::uniform_real_distribution<double> where(-7.0, 7.0), within(-0.125, 0.125), beyond(0.13, 3.0);
+  double worst = 0.0;
+  const int cases = 10 * wbm_test::property_cases();
+  for (int c = 0; c < cases; ++c) {
+    wbm::Data::AngleAnchor anchor;
+    double s, co;
+    // On the window's boundary, anchors on a 2^-10 grid make angle - a0 = 0.125 exact.
+    const double a0 = c % 4 < 2 ? std::ldexp(std::round(std::ldexp(where(rng), 10)), -10) : where(rng);
+    wbm::internal::anchored_sin_cos(a0, anchor, s, co);
+    ASSERT_EQ(anchor.angle, a0);
+    ASSERT_EQ(s, std::sin(a0));
+    ASSERT_EQ(co, std::cos(a0));
+    const double d = c % 4 == 0 ? 0.125 : c % 4 == 1 ? -0.125 : within(rng);
+    const double angle = a0 + d;
+    wbm::internal::anchored_sin_cos(angle, anchor, s, co);
+    const double error = std::max(std::abs(s - std::sin(angle)), std::abs(co - std::cos(angle)));
+    worst = std::max(worst, error);
+    ASSERT_LE(error, 2.5e-16) << "anchor " << a0 << ", angle " << angle;
+    ASSERT_EQ(anchor.angle, a0) << "the anchor moved for a step of " << d;
+    // Just beyond the window, or farther.
+    const double far = a0 + (c % 2 ? -1 : 1) * (c % 3 == 0 ? 0.125 + 1e-9 : beyond(rng));
+    wbm::internal::anchored_sin_cos(far, anchor, s, co);
+    ASSERT_EQ(anchor.angle, far);
+    ASSERT_EQ(s, std::sin(far));
+    ASSERT_EQ(co, std::cos(far));
+  }
+  wbm::Data::AngleAnchor anchor;
+  double angle = 0.3, s, co;
+  for (int k = 0; k < 1000000; ++k) {
+    angle += 1e-3 * within(rng);
+    wbm::internal::anchored_sin_cos(angle, anchor, s, co);
+    worst = std::max(worst, std::max(std::abs(s - std::sin(angle)), std::abs(co - std::cos(angle))));
+  }
+  EXPECT_LE(worst, 2.5e-16);
+  std::cout << "largest error " << worst << "\n";
+}
 
 // ---------------------------------------------------------------------------------------
 // The allocation counter itself.
