@@ -4,9 +4,10 @@
 /// angles the filters and axis elements meet every cycle, inline and several times cheaper
 /// than the library calls: truncated Taylor series, accurate to a few ulp for
 /// |angle| <= kSmallAngle (the truncation error is below 1e-17 relative); the library
-/// outside that range. (For joint
-/// angles of any size, a Cody-Waite reduction plus series was tried and was slower than
-/// glibc's sincos: its Horner chain is longer than the library's table lookup.)
+/// outside that range. Joint angles of any size in forward kinematics: the same series of
+/// the difference to an anchor where the library was last called (anchored_sin_cos). (A
+/// Cody-Waite reduction plus series was tried for them and was slower than glibc's sincos:
+/// its Horner chain is longer than the library's table lookup.)
 
 #include <cmath>
 
@@ -16,7 +17,7 @@
 
 namespace wbm::internal {
 
-inline constexpr double kSmallAngle = 0.1;
+inline constexpr double kSmallAngle = 0.1;  // <= 1/8, the range of series_sin_cos_minus_1
 
 /// The angle between two unit vectors from s = |a x b| (= sin angle), its square s2 and
 /// c = a . b: for small angles (c > 0, s <= kSmallAngle) the series of asin(s), which needs
@@ -41,6 +42,17 @@ inline Eigen::Vector3d normalized_near_unit(const Eigen::Vector3d& v) {
   return length2 > 0.0 ? Eigen::Vector3d(v / std::sqrt(length2)) : v;
 }
 
+/// sin(x) and cos(x) - 1 for |x| <= 1/8 (and kSmallAngle < 1/8): Taylor series to x^9 and
+/// x^10 (next terms: x^11/11! and x^12/12!, below 3e-18 at 1/8) in Estrin's scheme. cos - 1
+/// without the rounding of a cosine near 1.
+inline void series_sin_cos_minus_1(double x, double& sin_x, double& cos_x_minus_1) {
+  const double z = x * x, z2 = z * z;
+  const double p = (-1.0 / 6 + z * (1.0 / 120)) + z2 * (-1.0 / 5040 + z * (1.0 / 362880));
+  const double q = (-0.5 + z * (1.0 / 24)) + z2 * ((-1.0 / 720 + z * (1.0 / 40320)) + z2 * (-1.0 / 3628800));
+  sin_x = x + x * z * p;
+  cos_x_minus_1 = z * q;
+}
+
 /// sin(x) and cos(x).
 inline void small_angle_sincos(double x, double* sin_x, double* cos_x) {
   if (!(std::abs(x) <= kSmallAngle)) {
@@ -48,20 +60,15 @@ inline void small_angle_sincos(double x, double* sin_x, double* cos_x) {
     *cos_x = std::cos(x);
     return;
   }
-  // Taylor series to x^9 and x^10 (next terms: x^11/11! < 3e-19, x^12/12! < 3e-21), in
-  // Estrin's scheme.
-  const double y = x * x, y2 = y * y;
-  const double s0 = 1.0 - y * (1.0 / 6), s1 = 1.0 / 120 - y * (1.0 / 5040);
-  *sin_x = x * (s0 + y2 * (s1 + y2 * (1.0 / 362880)));
-  const double c0 = 1.0 - y * 0.5, c1 = 1.0 / 24 - y * (1.0 / 720), c2 = 1.0 / 40320 - y * (1.0 / 3628800);
-  *cos_x = c0 + y2 * (c1 + y2 * c2);
+  double cos_minus_1;
+  series_sin_cos_minus_1(x, *sin_x, cos_minus_1);
+  *cos_x = 1.0 + cos_minus_1;
 }
 
 /// Sine and cosine of a joint angle [rad] of any size, for forward kinematics. Within 1/8 rad
 /// of the anchor (where libm was last called for this joint), the anchor's pair rotated by
 /// d = angle - anchor.angle: sin(a0 + d) = s0 + (s0 (cos d - 1) + c0 sin d), the cosine
-/// alike, with sin d and cos d - 1 by their Taylor series (the first omitted terms, d^11/11!
-/// and d^12/12!, are below 3e-18 for |d| <= 1/8). The anchor stays where libm was called, so
+/// alike, with sin d and cos d - 1 from series_sin_cos_minus_1. The anchor stays where libm was called, so
 /// the error does not build up over calls: libm's plus about one rounding of the sum (an
 /// absolute error below 2.5e-16; near a zero of sin or cos the relative error grows, which
 /// a rotation matrix does not feel). Otherwise (and for the NaN anchor of a fresh Data) libm,
@@ -70,11 +77,8 @@ inline void small_angle_sincos(double x, double* sin_x, double* cos_x) {
 inline void anchored_sin_cos(double angle, Data::AngleAnchor& anchor, double& s, double& c) {
   const double d = angle - anchor.angle;
   if (std::abs(d) <= 0.125) {
-    const double z = d * d, z2 = z * z;
-    // sin d = d + d z p(z), cos d - 1 = z q(z), in Estrin's scheme.
-    const double p = (-1.0 / 6 + z * (1.0 / 120)) + z2 * (-1.0 / 5040 + z * (1.0 / 362880));
-    const double q = (-0.5 + z * (1.0 / 24)) + z2 * ((-1.0 / 720 + z * (1.0 / 40320)) + z2 * (-1.0 / 3628800));
-    const double sin_d = d + d * z * p, cos_d_minus_1 = z * q;
+    double sin_d, cos_d_minus_1;
+    series_sin_cos_minus_1(d, sin_d, cos_d_minus_1);
     s = anchor.sin + (anchor.sin * cos_d_minus_1 + anchor.cos * sin_d);
     c = anchor.cos + (anchor.cos * cos_d_minus_1 - anchor.sin * sin_d);
     return;
