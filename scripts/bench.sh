@@ -4,6 +4,9 @@
 #   scripts/bench.sh                      all fixtures (paper model, G1, Romeo) against KDL
 #   scripts/bench.sh --short              the same, short (a few seconds)
 #   scripts/bench.sh --scaling            scaling study; rewrites bench/results/scaling.{csv,svg,md}
+#   scripts/bench.sh --instructions       instructions per control cycle by function (valgrind's
+#                                         callgrind; the same on every run of a build); with a
+#                                         URDF (below): on your robot
 #   scripts/bench.sh ROBOT.urdf --hands LEFT,RIGHT [--head FRAME] [--root LINK] [--legs A,B]
 #                    [--com] [--posture DOF,DOF,...]
 #                    [--default-limits] [--drop-legs] [--root-height H] [--short]
@@ -33,6 +36,7 @@ while [[ $# -gt 0 ]]; do
     -h|--help) usage 0 ;;
     --short) short=1 ;;
     --scaling) mode="scaling" ;;
+    --instructions) mode="instructions" ;;
     --build-dir) build_dir="$2"; shift ;;
     --root) own+=("--wbm_root=$2"); shift ;;
     --legs) own+=("--wbm_legs=$2"); shift ;;
@@ -67,11 +71,16 @@ if [[ -n "$urdf" ]]; then
   [[ "$urdf" == /* || -f "$urdf" ]] || urdf="$caller_dir/$urdf"  # relative to where it was called from
   [[ -f "$urdf" ]] || { echo "bench.sh: no such file: $urdf" >&2; exit 2; }
   printf '%s\n' "${own[@]}" | grep -q -- '--wbm_hands=' || { echo "bench.sh: --hands LEFT,RIGHT is required" >&2; exit 2; }
+  if [[ "$mode" == "instructions" ]]; then
+    exec python3 bench/count_instructions.py "$bin" custom -- "--wbm_urdf=$urdf" "${own[@]}" --wbm_id=custom "${extra[@]}"
+  fi
   exec "$bin" "--wbm_urdf=$urdf" "${own[@]}" --wbm_id=custom --benchmark_filter='^custom/' "${args[@]}" "${extra[@]}"
 fi
 if [[ ${#own[@]} -gt 0 ]]; then echo "bench.sh: --root/--legs/--hands/--head/--com/--posture need a URDF file" >&2; exit 2; fi
 
-if [[ "$mode" == "scaling" ]]; then
+if [[ "$mode" == "instructions" ]]; then
+  exec python3 bench/count_instructions.py "$bin" paper_r12 g1_r20 romeo_r12 -- "${extra[@]}"
+elif [[ "$mode" == "scaling" ]]; then
   json="$(mktemp --suffix=.json)"
   trap 'rm -f "$json"' EXIT
   "$bin" --benchmark_filter='^scaling/' --benchmark_out="$json" --benchmark_out_format=json "${args[@]}" "${extra[@]}"
