@@ -113,12 +113,19 @@ def main(argv):
     i = 0
     while i < len(argv):
         if argv[i] in ("--top", "--min-time") and i + 1 < len(argv):
+            value = argv[i + 1]
             if argv[i] == "--top":
-                if not argv[i + 1].isdigit():
-                    fail(f"--top expects a positive integer, got '{argv[i + 1]}'", 2)
-                top = int(argv[i + 1])
+                if not (value.isdigit() and int(value) > 0):
+                    fail(f"--top expects a positive integer, got '{value}'", 2)
+                top = int(value)
             else:
-                min_time = argv[i + 1]
+                try:
+                    valid = float(value) > 0.0
+                except ValueError:
+                    valid = False
+                if not valid:
+                    fail(f"--min-time expects seconds > 0 (e.g. 0.02), got '{value}'", 2)
+                min_time = value
             i += 2
         elif argv[i] in ("-h", "--help"):
             print(__doc__)
