@@ -17,7 +17,10 @@
 
 namespace wbm::internal {
 
-inline constexpr double kSmallAngle = 0.1;  // <= 1/8, the range of series_sin_cos_minus_1
+/// Range of series_sin_cos_minus_1 [rad], and so the window of anchored_sin_cos.
+inline constexpr double kSeriesRange = 0.125;
+inline constexpr double kSmallAngle = 0.1;  // <= kSeriesRange
+static_assert(kSmallAngle <= kSeriesRange);
 
 /// The angle between two unit vectors from s = |a x b| (= sin angle), its square s2 and
 /// c = a . b: for small angles (c > 0, s <= kSmallAngle) the series of asin(s), which needs
@@ -42,7 +45,7 @@ inline Eigen::Vector3d normalized_near_unit(const Eigen::Vector3d& v) {
   return length2 > 0.0 ? Eigen::Vector3d(v / std::sqrt(length2)) : v;
 }
 
-/// sin(x) and cos(x) - 1 for |x| <= 1/8 (and kSmallAngle < 1/8): Taylor series to x^9 and
+/// sin(x) and cos(x) - 1 for |x| <= kSeriesRange = 1/8: Taylor series to x^9 and
 /// x^10 (next terms: x^11/11! and x^12/12!, below 3e-18 at 1/8) in Estrin's scheme. cos - 1
 /// without the rounding of a cosine near 1.
 inline void series_sin_cos_minus_1(double x, double& sin_x, double& cos_x_minus_1) {
@@ -68,15 +71,15 @@ inline void small_angle_sincos(double x, double* sin_x, double* cos_x) {
 /// Sine and cosine of a joint angle [rad] of any size, for forward kinematics. Within 1/8 rad
 /// of the anchor (where libm was last called for this joint), the anchor's pair rotated by
 /// d = angle - anchor.angle: sin(a0 + d) = s0 + (s0 (cos d - 1) + c0 sin d), the cosine
-/// alike, with sin d and cos d - 1 from series_sin_cos_minus_1. The anchor stays where libm was called, so
-/// the error does not build up over calls: libm's plus about one rounding of the sum (an
+/// alike, with sin d and cos d - 1 from series_sin_cos_minus_1. The anchor stays where libm
+/// was called, so the error does not build up over calls: libm's plus about one rounding of the sum (an
 /// absolute error below 2.5e-16; near a zero of sin or cos the relative error grows, which
 /// a rotation matrix does not feel). Otherwise (and for the NaN anchor of a fresh Data) libm,
 /// and the anchor moves there. A controller's joints move far less than 1/8 rad per cycle,
 /// so libm is called once a joint has travelled 1/8 rad.
 inline void anchored_sin_cos(double angle, Data::AngleAnchor& anchor, double& s, double& c) {
   const double d = angle - anchor.angle;
-  if (std::abs(d) <= 0.125) {
+  if (std::abs(d) <= kSeriesRange) {
     double sin_d, cos_d_minus_1;
     series_sin_cos_minus_1(d, sin_d, cos_d_minus_1);
     s = anchor.sin + (anchor.sin * cos_d_minus_1 + anchor.cos * sin_d);

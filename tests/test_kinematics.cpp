@@ -355,19 +355,20 @@ INSTANTIATE_TEST_SUITE_P(Models, Kinematics, testing::ValuesIn(kinematic_cases()
 // steps show that the error does not build up.
 TEST(AnchoredSinCos, MatchesTheLibraryAndKeepsItsAnchor) {
   std::mt19937_64 rng(41);
-  std::uniform_real_distribution<double> where(-7.0, 7.0), within(-0.125, 0.125), beyond(0.13, 3.0);
+  const double window = wbm::internal::kSeriesRange;  // 1/8
+  std::uniform_real_distribution<double> where(-7.0, 7.0), within(-window, window), beyond(window + 0.005, 3.0);
   double worst = 0.0;
   const int cases = 10 * wbm_test::property_cases();
   for (int c = 0; c < cases; ++c) {
     wbm::Data::AngleAnchor anchor;
     double s, co;
-    // On the window's boundary, anchors on a 2^-10 grid make angle - a0 = 0.125 exact.
+    // On the window's boundary, anchors on a 2^-10 grid make angle - a0 = 1/8 exact.
     const double a0 = c % 4 < 2 ? std::ldexp(std::round(std::ldexp(where(rng), 10)), -10) : where(rng);
     wbm::internal::anchored_sin_cos(a0, anchor, s, co);
     ASSERT_EQ(anchor.angle, a0);
     ASSERT_EQ(s, std::sin(a0));
     ASSERT_EQ(co, std::cos(a0));
-    const double d = c % 4 == 0 ? 0.125 : c % 4 == 1 ? -0.125 : within(rng);
+    const double d = c % 4 == 0 ? window : c % 4 == 1 ? -window : within(rng);
     const double angle = a0 + d;
     wbm::internal::anchored_sin_cos(angle, anchor, s, co);
     const double error = std::max(std::abs(s - std::sin(angle)), std::abs(co - std::cos(angle)));
@@ -375,7 +376,7 @@ TEST(AnchoredSinCos, MatchesTheLibraryAndKeepsItsAnchor) {
     ASSERT_LE(error, 2.5e-16) << "anchor " << a0 << ", angle " << angle;
     ASSERT_EQ(anchor.angle, a0) << "the anchor moved for a step of " << d;
     // Just beyond the window, or farther.
-    const double far = a0 + (c % 2 ? -1 : 1) * (c % 3 == 0 ? 0.125 + 1e-9 : beyond(rng));
+    const double far = a0 + (c % 2 ? -1 : 1) * (c % 3 == 0 ? window + 1e-9 : beyond(rng));
     wbm::internal::anchored_sin_cos(far, anchor, s, co);
     ASSERT_EQ(anchor.angle, far);
     ASSERT_EQ(s, std::sin(far));
