@@ -50,17 +50,31 @@ TEST(Controller, CycleAllocatesNothing) {
     std::uniform_real_distribution<double> u(-0.3, 0.3);
     std::bernoulli_distribution coin(0.5);
     wbm_test::AllocationCounter counter;
-    for (int k = 0; k < 3000; ++k) {
-      if (k % 100 == 0) {  // switch elements, constraints and targets at run time
+    std::uint32_t seen = 0;
+    for (int k = 0; k < 4000; ++k) {
+      if (k == 3000) {  // then every element on and the left hand 1 m out of reach: the arm
+                        // stretches (damped) and dofs reach their limits (frozen, re-solved)
+        cmd.task_active.setConstant(true);
+        cmd.free_dofs.setConstant(true);
+        const VirtualDofs& v = model.virtual_dofs();
+        for (int heel : {v.heel_x, v.heel_y, v.heel_yaw}) cmd.free_dofs[heel] = false;  // standing
+        for (int i = 0; i < 3; ++i) cmd.targets[i] = c.values()[i] + (i == 1 ? 1.0 : 0.0);
+      }
+      if (k < 3000 && k % 100 == 0) {  // switch elements, constraints and targets at run time
         for (int i = 0; i < cmd.task_active.size(); ++i) cmd.task_active[i] = coin(rng);
         for (int i = 9; i < cmd.free_dofs.size(); ++i) cmd.free_dofs[i] = coin(rng) || coin(rng);
         for (int i = 0; i < 3; ++i) cmd.targets[i] = c.values()[i] + u(rng);
         cmd.targets[5] = k % 300 == 0 ? std::nan("") : cmd.targets[5];
       }
       balance.update(c.data(), support, 0.001, cmd);
-      c.update(cmd, 0.001);
+      seen |= c.update(cmd, 0.001).flags;
     }
     EXPECT_EQ(counter.count(), 0) << id;
+    // The slow paths ran too: damping near singularities, dofs frozen at their limits and
+    // the solve repeated, an invalid target.
+    for (const std::uint32_t flag : {static_cast<std::uint32_t>(kDamped), static_cast<std::uint32_t>(kDofAtLimitFrozen),
+                                     static_cast<std::uint32_t>(kInvalidTarget)})
+      EXPECT_NE(seen & flag, 0u) << id << ": flag " << flag << " never set";
   }
 }
 
