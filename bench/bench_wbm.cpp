@@ -6,6 +6,8 @@
 //   <id>/wbm/kinematics      forward kinematics + the active rows' Jacobians (TaskStack::assemble)
 //   <id>/kdl/kinematics      TreeFkSolverPos_recursive + TreeJntToJacSolver for the endpoints
 //   <id>/wbm/cycle           one Controller::update(): filters, FK, Jacobians, solve, limits
+//   <id>/wbm/cycle_out_of_reach  the same with the hand targets out of reach: the damped path
+//                            and dofs frozen at their limits (the slow paths)
 //   <id>/kdl_wdls/cycle      endpoint FK, twists, TreeIkSolverVel_wdls (6 rows per endpoint), integration,
 //                            on wbm's whole tree (the same dofs, virtual ones included)
 //   <id>/kdl_wdls_urdf/cycle the same on the URDF's own tree (no virtual dofs, legs included)
@@ -128,6 +130,7 @@ void bm_direction_filter(benchmark::State& state, bool varying_dt) {
 
 struct Result {
   double p50_us = 0.0, p99_us = 0.0, mean_us = 0.0;
+  double damped_pct = 0.0, refrozen_pct = 0.0;  // wbm cycles only
 };
 
 /// Console output as usual, and the results kept for the tables at the end.
@@ -144,6 +147,9 @@ class TableReporter : public benchmark::ConsoleReporter {
       if (p50 == run.counters.end() || p99 == run.counters.end()) continue;
       r.p50_us = p50->second.value;
       r.p99_us = p99->second.value;
+      const auto damped = run.counters.find("damped_pct"), refrozen = run.counters.find("refrozen_pct");
+      if (damped != run.counters.end()) r.damped_pct = damped->second.value;
+      if (refrozen != run.counters.end()) r.refrozen_pct = refrozen->second.value;
       r.mean_us = run.real_accumulated_time / static_cast<double>(run.iterations) * 1e6;
       std::string name = run.benchmark_name();
       const std::string suffix = "/manual_time";
@@ -166,6 +172,8 @@ class TableReporter : public benchmark::ConsoleReporter {
     out.p50_us = median(&Result::p50_us);
     out.p99_us = median(&Result::p99_us);
     out.mean_us = median(&Result::mean_us);
+    out.damped_pct = median(&Result::damped_pct);
+    out.refrozen_pct = median(&Result::refrozen_pct);
     return true;
   }
 
@@ -226,6 +234,24 @@ void print_tables(const TableReporter& rep, const std::vector<FixtureSpec>& fixt
     std::printf("| %s | %d | %s | %s | %s | %s | %s | %s | %s |\n", f.id.c_str(), f.rows(), cell(rep, w).c_str(),
                 cell(rep, k).c_str(), ratio(rep, k, w).c_str(), cell(rep, u).c_str(), ratio(rep, u, w).c_str(),
                 cell(rep, n).c_str(), ratio(rep, n, w).c_str());
+  }
+  // The slow paths: the same cycle with the hands reaching for targets out of reach.
+  bool reach_header = false;
+  for (const FixtureSpec& f : fixtures) {
+    const std::string w = f.id + "/wbm/cycle", o = f.id + "/wbm/cycle_out_of_reach";
+    Result normal, reach;
+    if (!rep.get(o, reach)) continue;
+    if (!reach_header) {
+      std::printf("\nOut of reach: the hand targets 1 m beyond the hands, timed after 3 s of reaching (arms "
+                  "stretched: the damped path; dofs at their limits: frozen and re-solved). Cycles that took "
+                  "these paths, in %% of the timed ones.\n\n"
+                  "| fixture | rows | wbm cycle | out of reach | out of reach / cycle | damped | refrozen |\n"
+                  "|---|---|---|---|---|---|---|\n");
+      reach_header = true;
+    }
+    std::printf("| %s | %d | %s | %s | %s | %.0f %% | %.0f %% |\n", f.id.c_str(), f.rows(), cell(rep, w).c_str(),
+                cell(rep, o).c_str(), rep.get(w, normal) ? ratio(rep, o, w).c_str() : "-", reach.damped_pct,
+                reach.refrozen_pct);
   }
   // Stages of the cycle, each timed alone (medians).
   bool parts_header = false;
@@ -308,6 +334,7 @@ int main(int argc, char** argv) {
     reg("wbm/kinematics", wbm_bench::bm_wbm_kinematics);
     reg("kdl/kinematics", wbm_bench::bm_kdl_kinematics);
     reg("wbm/cycle", wbm_bench::bm_wbm_cycle);
+    reg("wbm/cycle_out_of_reach", wbm_bench::bm_wbm_cycle_out_of_reach);
     reg("kdl_wdls/cycle", wbm_bench::bm_kdl_wdls_cycle);
     reg("kdl_wdls_urdf/cycle", wbm_bench::bm_kdl_wdls_urdf_cycle);
     reg("kdl_arm/cycle", wbm_bench::bm_kdl_arm_cycle);

@@ -51,6 +51,7 @@ constexpr double kJointAmplitude = 0.1;       // [rad]
 constexpr double kKdlGain = 10.0;             // [1/s], wbm's default element gain
 constexpr double kKdlLambda = 0.01;           // wdls damping (lambda = 0 gives NaN on wide Jacobians)
 constexpr int kConfigurations = 64;           // random configurations cycled through in (a)
+constexpr double kOutOfReach = 1.0;           // [m] hand targets beyond the hands (cycle_out_of_reach)
 
 std::string read_text(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -184,6 +185,12 @@ class Fixture {
     t_wbm += kDt;
     for (const Motion& m : motions) m.write(t_wbm, command.targets.segment(m.t0, m.n));
   }
+  void next_reach_targets() {
+    t_reach += kDt;
+    for (const Motion& m : reach_motions) m.write(t_reach, reach_command.targets.segment(m.t0, m.n));
+  }
+  /// The controller of cycle_out_of_reach, built (and run into the stretched state) on first use.
+  void build_out_of_reach();
   void next_nso_target() {
     t_nso += kDt;
     chain_end.move(t_nso);
@@ -199,6 +206,11 @@ class Fixture {
   std::unique_ptr<wbm::Data> kin_data;
   std::unique_ptr<wbm::TaskStack> kin_stack;
   std::vector<VectorXd> configs;
+  // wbm with the hand targets out of reach (a second controller; the same elements)
+  std::unique_ptr<wbm::Controller> reach_controller;
+  wbm::Command reach_command;
+  std::vector<Motion> reach_motions;
+  double t_reach = 0.0;
   // KDL trees: wbm's whole tree (every dof a joint, the virtual ones included: the same
   // dofs as wbm) and the URDF as it is (from the root link down, legs included).
   KdlTree kdl, kdl_urdf;
@@ -336,6 +348,50 @@ void Fixture::add_elements(const std::function<void(std::unique_ptr<wbm::TaskEle
   if (spec.head_axis) add(std::make_unique<wbm::AxisTask>(m, "view_axis", spec.head));
   if (spec.com) add(std::make_unique<wbm::CenterOfMassTask>(m, "com", "heel"));
   if (!spec.joint_task.empty()) add(std::make_unique<wbm::JointTask>(m, "posture", spec.joint_task));
+}
+
+void Fixture::build_out_of_reach() {
+  const wbm::Model& m = *model;
+  reach_controller = std::make_unique<wbm::Controller>(m);
+  reach_controller->set_criterion(std::make_unique<wbm::CubicJointLimitCriterion>(m, 0.0));
+  add_elements([&](std::unique_ptr<wbm::TaskElement> e) { reach_controller->add_task(std::move(e)); });
+  reach_controller->reset(m.home());
+  reach_command = reach_controller->make_command();
+  reach_command.free_dofs = command.free_dofs;
+  // Each hand's target 1 m beyond the hand, away from the centre of mass (the world origin
+  // for a massless model), with the fixture's small motion on top; the other elements
+  // move as in the fixture.
+  wbm::Data data(m);
+  wbm::forward_kinematics(m, data, m.home());
+  const Vector3 centre = m.total_mass() > 0.0 ? wbm::center_of_mass(m, data) : Vector3::Zero();
+  reach_motions = motions;
+  for (Motion& motion : reach_motions) {
+    motion.base = reach_controller->values().segment(motion.t0, motion.n);
+    if (motion.kind == Motion::Kind::kDirection) perpendicular_basis(motion.base.head<3>(), motion.u, motion.v);
+    if (motion.kind != Motion::Kind::kPosition) continue;
+    const Vector3 away = motion.base.head<3>() - centre;
+    motion.base += kOutOfReach * (away.norm() > 1e-9 ? Vector3(away.normalized()) : Vector3::UnitX());
+  }
+  // 3 s towards the targets: the arms end up stretched, dofs at their limits.
+  for (int k = 0; k < 3000; ++k) {
+    next_reach_targets();
+    if (!reach_controller->update(reach_command, kDt).ok())
+      throw std::runtime_error(spec.id + ": controller cycle failed while reaching out");
+  }
+  double nearest = std::numeric_limits<double>::infinity();
+  for (const Motion& motion : reach_motions)
+    if (motion.kind == Motion::Kind::kPosition)
+      nearest = std::min(nearest, (reach_controller->values().segment(motion.t0, 3) -
+                                   reach_command.targets.segment(motion.t0, 3)).norm());
+  const VectorXd& q = reach_controller->q();
+  const bool within = q.allFinite() && (q.array() >= m.lower_limits().array()).all() &&
+                      (q.array() <= m.upper_limits().array()).all();
+  note(spec.id + ": wbm out of reach (hand targets " + fmt("%.1f m", kOutOfReach) +
+       " beyond the hands), after 3 s: the nearest hand " + fmt("%.2f m", nearest) +
+       " from its target, joints within their limits: " + (within ? "yes" : "NO"));
+  if (!(nearest > 0.1 && within))
+    throw std::runtime_error(spec.id + ": out of reach: a hand reached its target (" + fmt("%.2f m", nearest) +
+                             ") or a joint left its limits");
 }
 
 void Fixture::build_wbm() {
@@ -879,10 +935,12 @@ void bm_wbm_part(benchmark::State& state, const FixtureSpec* spec, Part part) {
   benchmark::ClobberMemory();
 }
 
-void bm_wbm_cycle(benchmark::State& state, const FixtureSpec* spec) {
-  Fixture* f = get(state, spec);
-  if (f == nullptr) return;
-  wbm::Controller& c = *f->controller;
+namespace {
+
+/// Times controller cycles with the next targets set (untimed) before each; counters for
+/// the share of cycles that took the damped path or froze a dof at its limit.
+void time_cycles(benchmark::State& state, const Fixture& f, wbm::Controller& c, const wbm::Command& command,
+                 const std::function<void()>& next_targets) {
   std::uint32_t flags = 0, last = 0;
   std::int64_t damped = 0, frozen = 0, cycles = 0;
   timed_loop(
@@ -892,10 +950,10 @@ void bm_wbm_cycle(benchmark::State& state, const FixtureSpec* spec) {
         flags |= last;
         damped += (last & wbm::kDamped) != 0;
         frozen += (last & wbm::kDofAtLimitFrozen) != 0;
-        f->next_wbm_targets();
+        next_targets();
       },
       [&] {
-        last = c.update(f->command, kDt).flags;
+        last = c.update(command, kDt).flags;
         ++cycles;
       });
   flags |= last;
@@ -905,7 +963,30 @@ void bm_wbm_cycle(benchmark::State& state, const FixtureSpec* spec) {
   state.counters["damped_pct"] = cycles > 0 ? 100.0 * static_cast<double>(damped) / static_cast<double>(cycles) : 0.0;
   state.counters["refrozen_pct"] = cycles > 0 ? 100.0 * static_cast<double>(frozen) / static_cast<double>(cycles) : 0.0;
   state.counters["rows"] = c.tasks().num_rows();
-  state.counters["dofs"] = f->model->num_dofs();
+  state.counters["dofs"] = f.model->num_dofs();
+}
+
+}  // namespace
+
+void bm_wbm_cycle(benchmark::State& state, const FixtureSpec* spec) {
+  Fixture* f = get(state, spec);
+  if (f == nullptr) return;
+  time_cycles(state, *f, *f->controller, f->command, [f] { f->next_wbm_targets(); });
+}
+
+void bm_wbm_cycle_out_of_reach(benchmark::State& state, const FixtureSpec* spec) {
+  Fixture* f = get(state, spec);
+  if (f == nullptr) return;
+  if (!f->reach_controller) {
+    try {
+      f->build_out_of_reach();
+    } catch (const std::exception& e) {
+      fail(e.what());
+      state.SkipWithError(e.what());
+      return;
+    }
+  }
+  time_cycles(state, *f, *f->reach_controller, f->reach_command, [f] { f->next_reach_targets(); });
 }
 
 namespace {

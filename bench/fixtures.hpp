@@ -45,6 +45,9 @@ void bm_wbm_kinematics(benchmark::State& state, const FixtureSpec* spec);
 void bm_kdl_kinematics(benchmark::State& state, const FixtureSpec* spec);
 /// (b) one wbm::Controller::update() with moving targets.
 void bm_wbm_cycle(benchmark::State& state, const FixtureSpec* spec);
+/// (b') the same with the hand targets 1 m beyond the hands, after 3 s of reaching for them:
+/// arms stretched (the damped path), dofs at their limits (frozen and re-solved).
+void bm_wbm_cycle_out_of_reach(benchmark::State& state, const FixtureSpec* spec);
 /// (c) KDL closed-loop cycle: endpoint FK, twists, TreeIkSolverVel_wdls, integration, on the
 /// same tree as wbm (wbm::export_urdf with the virtual dofs: the same dofs, joint weights as
 /// wbm's W, heel frozen) and on the URDF's own tree (no virtual dofs, legs included);
