@@ -4,7 +4,7 @@
   python3 bench/count_instructions.py BENCH_WBM FIXTURE [FIXTURE ...] [--top N]
                                       [--min-time S] [-- BENCH_WBM_FLAGS ...]
 
-Runs `BENCH_WBM --benchmark_filter=^FIXTURE/wbm/cycle` under callgrind with collection
+Runs `BENCH_WBM --benchmark_filter=^FIXTURE/wbm/cycle/` under callgrind with collection
 switched on only inside wbm::Controller::update, and prints the instructions executed
 per call of it (one control cycle) with the functions that execute them (self cost:
 inlined code counts for the function it is inlined into). The cycles counted are those
@@ -84,7 +84,7 @@ def count(binary, fixture, min_time, extra, top):
     with tempfile.TemporaryDirectory() as tmp:
         out = os.path.join(tmp, "callgrind.out")
         command = ["valgrind", "--tool=callgrind", f"--toggle-collect={UPDATE.split('(')[0]}(*",
-                   f"--callgrind-out-file={out}", binary, f"--benchmark_filter=^{re.escape(fixture)}/wbm/cycle",
+                   f"--callgrind-out-file={out}", binary, f"--benchmark_filter=^{re.escape(fixture)}/wbm/cycle/",
                    f"--benchmark_min_time={min_time}"] + extra
         run = subprocess.run(command, capture_output=True, text=True)
         if run.returncode != 0 or not os.path.exists(out):
