@@ -213,7 +213,7 @@ class Fixture {
   wbm::Command reach_command;
   std::vector<Motion> reach_motions;
   double t_reach = 0.0;
-  bool reachable = false;  // the out-of-reach targets were reached (or the run failed): not timed
+  bool out_of_reach_untimed = false;  // a hand reached its target, or the run failed
   // KDL trees: wbm's whole tree (every dof a joint, the virtual ones included: the same
   // dofs as wbm) and the URDF as it is (from the root link down, legs included).
   KdlTree kdl, kdl_urdf;
@@ -984,13 +984,13 @@ void bm_wbm_cycle_out_of_reach(benchmark::State& state, const FixtureSpec* spec)
   if (f == nullptr) return;
   if (!f->reach_controller) {
     try {
-      f->reachable = !f->build_out_of_reach();
+      f->out_of_reach_untimed = !f->build_out_of_reach();
     } catch (const std::exception& e) {
       fail(e.what());
-      f->reachable = true;  // not timed; the process fails
+      f->out_of_reach_untimed = true;  // the process fails
     }
   }
-  if (f->reachable) {
+  if (f->out_of_reach_untimed) {
     state.SkipWithError("not out of reach on this robot (see the notes)");
     return;
   }
