@@ -239,6 +239,8 @@ class Fixture {
 
  private:
   void build_wbm();
+  /// A controller with the fixture's elements and criterion, at home.
+  std::unique_ptr<wbm::Controller> make_controller() const;
   void build_kdl(KdlTree& k, const std::string& xml, bool whole_tree);
   void build_chain();
   void check_kinematics_agree(KdlTree& k);
@@ -355,10 +357,7 @@ void Fixture::add_elements(const std::function<void(std::unique_ptr<wbm::TaskEle
 
 bool Fixture::build_out_of_reach() {
   const wbm::Model& m = *model;
-  reach_controller = std::make_unique<wbm::Controller>(m);
-  reach_controller->set_criterion(std::make_unique<wbm::CubicJointLimitCriterion>(m, 0.0));
-  add_elements([&](std::unique_ptr<wbm::TaskElement> e) { reach_controller->add_task(std::move(e)); });
-  reach_controller->reset(m.home());
+  reach_controller = make_controller();
   reach_command = reach_controller->make_command();
   reach_command.free_dofs = command.free_dofs;
   // Each hand's target 1 m beyond the hand, away from the centre of mass (the world origin
@@ -399,16 +398,22 @@ bool Fixture::build_out_of_reach() {
   return false;
 }
 
-void Fixture::build_wbm() {
+std::unique_ptr<wbm::Controller> Fixture::make_controller() const {
   const wbm::Model& m = *model;
-  controller = std::make_unique<wbm::Controller>(m);
+  auto c = std::make_unique<wbm::Controller>(m);
   // The default criterion (cubic joint-limit penalty) with activation band 0 instead of 0.3:
   // the same code, but its gradient is non-zero whenever a joint is off-centre, so that the
   // null-space projection and the speed/jerk limits of the null-space motion do their full
   // work in every timed cycle instead of only near the limits.
-  controller->set_criterion(std::make_unique<wbm::CubicJointLimitCriterion>(m, 0.0));
-  add_elements([&](std::unique_ptr<wbm::TaskElement> e) { controller->add_task(std::move(e)); });
-  controller->reset(m.home());
+  c->set_criterion(std::make_unique<wbm::CubicJointLimitCriterion>(m, 0.0));
+  add_elements([&](std::unique_ptr<wbm::TaskElement> e) { c->add_task(std::move(e)); });
+  c->reset(m.home());
+  return c;
+}
+
+void Fixture::build_wbm() {
+  const wbm::Model& m = *model;
+  controller = make_controller();
   command = controller->make_command();
   const wbm::VirtualDofs& v = m.virtual_dofs();
   for (int heel : {v.heel_x, v.heel_y, v.heel_yaw})
