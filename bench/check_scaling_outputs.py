@@ -1,0 +1,66 @@
+#!/usr/bin/env python3
+"""Checks what bench/plot_scaling.py wrote from a scaling run (CTest bench_scaling_plot).
+
+  python3 bench/check_scaling_outputs.py RESULTS.json OUTDIR
+
+Fails (exit 1, with the reason) unless OUTDIR holds scaling.csv with one row per scaling
+case of RESULTS.json (Google Benchmark's JSON), scaling.svg that parses as XML and draws a
+curve for each sweep, and scaling.md with the table and the fitted growth. Standard
+library only.
+"""
+import csv
+import json
+import os
+import sys
+import xml.etree.ElementTree as ET
+
+
+def fail(message):
+    print(f"check_scaling_outputs.py: {message}", file=sys.stderr)
+    sys.exit(1)
+
+
+def main():
+    if len(sys.argv) != 3:
+        fail("usage: check_scaling_outputs.py RESULTS.json OUTDIR")
+    results, out = sys.argv[1], sys.argv[2]
+    with open(results) as f:
+        benchmarks = json.load(f)["benchmarks"]
+    cases = {b["name"].replace("/manual_time", "") for b in benchmarks
+             if b["name"].startswith("scaling/") and b["name"].count("/") == 3 and not b.get("error_occurred")}
+    if not cases:
+        fail(f"{results}: no scaling cycle results")
+    sweeps = {c.split("/")[1] for c in cases}
+
+    with open(os.path.join(out, "scaling.csv")) as f:
+        rows = list(csv.DictReader(f))
+    names = {r["name"] for r in rows}
+    if names != cases:
+        fail(f"scaling.csv: {len(names)} cases, the results have {len(cases)} "
+             f"(missing {sorted(cases - names)[:3]}, extra {sorted(names - cases)[:3]})")
+    for r in rows:
+        if not float(r["p50_us"]) > 0.0:
+            fail(f"scaling.csv: {r['name']}: median {r['p50_us']} is not a positive time")
+
+    try:
+        svg = ET.parse(os.path.join(out, "scaling.svg")).getroot()
+    except ET.ParseError as e:
+        fail(f"scaling.svg does not parse: {e}")
+    drawn = [e for e in svg.iter() if e.tag.split("}")[-1] in ("path", "polyline")]
+    if len(drawn) < len(sweeps):
+        fail(f"scaling.svg: {len(drawn)} curves for {len(sweeps)} sweeps")
+
+    with open(os.path.join(out, "scaling.md")) as f:
+        md = f.read()
+    for needed in ["![scaling plot](scaling.svg)", "| sweep |", "fit"]:
+        if needed not in md:
+            fail(f"scaling.md: no '{needed}'")
+    table_rows = [line for line in md.splitlines() if line.startswith("| ") and line.split("|")[1].strip() in sweeps]
+    if len(table_rows) < len(cases):
+        fail(f"scaling.md: {len(table_rows)} table rows for {len(cases)} cases")
+    print(f"scaling outputs: {len(cases)} cases in {len(sweeps)} sweeps, {len(drawn)} curves")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
