@@ -26,8 +26,14 @@ def main():
     results, out = sys.argv[1], sys.argv[2]
     with open(results) as f:
         benchmarks = json.load(f)["benchmarks"]
-    cases = {b["name"].replace("/manual_time", "") for b in benchmarks
-             if b["name"].startswith("scaling/") and b["name"].count("/") == 3 and not b.get("error_occurred")}
+    # The cycles' runs (scaling/<sweep>/<case>/manual_time), as plot_scaling.py reads them:
+    # iterations only (repetitions add aggregate rows), no stage (.../<case>/<stage>/...).
+    cases = set()
+    for b in benchmarks:
+        parts = b["name"].replace("/manual_time", "").split("/")
+        if (parts[0] == "scaling" and len(parts) == 3 and b.get("run_type", "iteration") == "iteration"
+                and not b.get("error_occurred")):
+            cases.add("/".join(parts))
     if not cases:
         fail(f"{results}: no scaling cycle results")
     sweeps = {c.split("/")[1] for c in cases}

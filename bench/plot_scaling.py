@@ -368,9 +368,14 @@ def main():
         return 1
     out = sys.argv[2]
     os.makedirs(out, exist_ok=True)
-    c_full = fit(samples, FULL[0])
-    c_brief = fit(samples, BRIEF[0])
-    c_brief_n = fit(samples, BRIEF_N[0])
+    try:
+        c_full = fit(samples, FULL[0])
+        c_brief = fit(samples, BRIEF[0])
+        c_brief_n = fit(samples, BRIEF_N[0])
+    except ValueError:
+        print("%s: %d scaling cases are too few to fit the growth models (run all of ^scaling/)"
+              % (sys.argv[1], len(samples)), file=sys.stderr)
+        return 1
     write_csv(samples, os.path.join(out, "scaling.csv"))
     write_svg(samples, c_full, c_brief, os.path.join(out, "scaling.svg"))
     write_md(samples, context, (c_full, c_brief, c_brief_n), os.path.join(out, "scaling.md"))
