@@ -802,6 +802,52 @@ TEST(Export, ModelWithWeldedBody) {
             1e-12);
 }
 
+// A joint axis written with few digits (norm within 1 % of one) is normalised, as KDL and
+// urdfdom users expect: the same poses as the exact axis. Farther from unit length it is an
+// error naming the line (the catalogue in test_urdf_errors.cpp has norm 2).
+std::string one_joint_urdf(const std::string& axis) {
+  return "<?xml version=\"1.0\"?>\n<robot name=\"r\">\n"
+         "<link name=\"base\"><inertial><mass value=\"1\"/>"
+         "<inertia ixx=\"0.1\" ixy=\"0\" ixz=\"0\" iyy=\"0.1\" iyz=\"0\" izz=\"0.1\"/></inertial></link>\n"
+         "<link name=\"l1\"/><link name=\"l2\"/>\n"
+         "<joint name=\"j1\" type=\"revolute\"><parent link=\"base\"/><child link=\"l1\"/>\n"
+         "<axis xyz=\"" + axis + "\"/><limit lower=\"-2\" upper=\"2\" effort=\"1\" velocity=\"1\"/></joint>\n"
+         "<joint name=\"j2\" type=\"fixed\"><parent link=\"l1\"/><child link=\"l2\"/>"
+         "<origin xyz=\"0.1 0.2 0.3\"/></joint>\n</robot>\n";
+}
+
+TEST(UrdfImport, RoundedJointAxesAreNormalised) {
+  const double r = std::sqrt(0.5);
+  std::ostringstream exact;
+  exact.precision(17);
+  exact << r << " 0 " << r;
+  const Model reference = wbm::parse_urdf(one_joint_urdf(exact.str()), {}, "exact.urdf");
+  Data dr(reference);
+  for (const std::string axis : {"0.707 0 0.707", "7.07e-1 0.0 0.707", "0.71 0 0.71"}) {
+    const Model model = wbm::parse_urdf(one_joint_urdf(axis), {}, "rounded.urdf");
+    Data d(model);
+    for (const double angle : {-1.9, -0.3, 0.8, 2.0}) {
+      Eigen::VectorXd q = model.home();
+      q[model.dof_index("j1")] = angle;
+      wbm::forward_kinematics(model, d, q);
+      wbm::forward_kinematics(reference, dr, q);
+      EXPECT_LT(wbm_test::transform_distance(wbm::frame_pose(model, d, model.frame_index("l2")),
+                                             wbm::frame_pose(reference, dr, reference.frame_index("l2"))),
+                1e-12)
+          << axis << " at " << angle;
+    }
+  }
+  for (const std::string axis : {"0 0 1.02", "0.7 0 0.7"}) {
+    try {
+      wbm::parse_urdf(one_joint_urdf(axis), {}, "typo.urdf");
+      ADD_FAILURE() << axis << " was accepted";
+    } catch (const wbm::ParseError& e) {
+      EXPECT_NE(std::string(e.what()).find("typo.urdf:6: joint 'j1': joint axis has norm"), std::string::npos)
+          << e.what();
+    }
+  }
+}
+
 // ---------------------------------------------------------------------------------------
 // Roll-pitch-yaw conversion, used by the exporter for every joint origin.
 
