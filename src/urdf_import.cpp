@@ -150,6 +150,13 @@ class UrdfChecker {
       }
       check_limits(e, j, what);
     }
+    // urdfdom rejects a <limit> without effort or velocity on any joint type (its message
+    // has no line); wbm reads neither on fixed joints and never reads effort.
+    if (const TiXmlElement* limit = e->FirstChildElement("limit"))
+      for (const char* attribute : {"effort", "velocity"})
+        if (limit->Attribute(attribute) == nullptr)
+          fail(limit->Row(), what + ": <limit> lacks " + attribute + "=\"...\" (the URDF format requires it" +
+                                 (std::string(attribute) == "effort" ? "; wbm does not use it)" : ")"));
     joint_index_[j.name] = joints_.size();
     joints_.push_back(j);
   }

@@ -55,6 +55,8 @@ const std::vector<Case>& catalogue() {
        {}},
       {"bad_axis_zero.urdf", "bad_axis_zero.urdf:12: joint 'j1': joint axis is zero", "", {}},
       {"axis_not_unit.urdf", "axis_not_unit.urdf:10: joint 'j1': joint axis has norm 2 (expected a unit vector, within 1 %)", "", {}},
+      {"limit_without_effort.urdf",
+       "limit_without_effort.urdf:11: joint 'j1': <limit> lacks effort=\"...\" (the URDF format requires it", "", {}},
       {"negative_mass.urdf", "negative_mass.urdf:8: link 'l1': negative mass -0.5", "", {}},
       {"inertial_without_mass.urdf", "inertial_without_mass.urdf:7: link 'l1': <inertial> lacks <mass>", "", {}},
       {"lower_above_upper.urdf", "lower_above_upper.urdf:11: joint 'j1': lower limit 1.5 is above upper limit -1.5", "",
