@@ -150,6 +150,14 @@ struct KdlTree {
   std::vector<KDL::JntArray> configs;
   std::vector<KDL::Jacobian> jacobians;
   std::vector<int> of_dof;  // KDL q_nr of each wbm dof, -1 if none
+  /// A joint that follows a wbm dof: multiplier * q[dof] + offset (URDF mimic joints; KDL
+  /// ignores <mimic>, so it gets their values here and moves them on its own afterwards).
+  struct MimicJoint {
+    unsigned q_nr = 0;
+    int dof = 0;
+    double multiplier = 1.0, offset = 0.0;
+  };
+  std::vector<MimicJoint> mimic_joints;
   double t = 0.0;
 
   /// KDL joint values of a wbm configuration (joints without a wbm dof, e.g. locked legs, at 0).
@@ -157,6 +165,7 @@ struct KdlTree {
     KDL::JntArray k(tree.getNrOfJoints());
     for (int i = 0; i < q_wbm.size(); ++i)
       if (of_dof[i] >= 0) k(of_dof[i]) = q_wbm[i];
+    for (const MimicJoint& j : mimic_joints) k(j.q_nr) = j.multiplier * q_wbm[j.dof] + j.offset;
     return k;
   }
   /// Endpoint FK, twists = gain x pose error, wdls, integration with clamping.
@@ -459,7 +468,15 @@ void Fixture::build_kdl(KdlTree& k, const std::string& xml, bool whole_tree) {
   std::map<std::string, int> q_nr;
   for (const auto& [name, element] : k.tree.getSegments()) {
     const KDL::Joint& joint = GetTreeElementSegment(element).getJoint();
-    if (joint.getType() != KDL::Joint::None) q_nr[joint.getName()] = static_cast<int>(GetTreeElementQNr(element));
+    if (joint.getType() == KDL::Joint::None) continue;
+    q_nr[joint.getName()] = static_cast<int>(GetTreeElementQNr(element));
+    // A joint that is no dof of wbm's but moves a body of wbm's with a dof: a mimic joint
+    // (KDL segments are named after their child link, as wbm's bodies).
+    const int frame = model->find_dof(joint.getName()) < 0 ? model->find_frame(name) : -1;
+    if (frame < 0) continue;
+    const wbm::Body& body = model->body(model->frame(frame).body);
+    if (body.name == name && body.dof >= 0)
+      k.mimic_joints.push_back({GetTreeElementQNr(element), body.dof, body.multiplier, body.offset});
   }
   k.of_dof.assign(model->num_dofs(), -1);
   k.lower.resize(nj);
