@@ -347,7 +347,18 @@ class TreeBuilder {
       const urdf::Joint& joint = *urdf_.joints_.at(info->name);
       const bool forward = info->parent == link_name;
       const std::string& other = forward ? info->child : info->parent;
-      if (joint.type == urdf::Joint::FLOATING) continue;  // a world link: cut here
+      if (joint.type == urdf::Joint::FLOATING) {
+        // A floating joint to a massless link without other joints is a world link: cut
+        // here (the virtual dofs take its place). Anywhere else it would cut off part of
+        // the robot without a word.
+        const urdf::Link& far = *urdf_.links_.at(other);
+        const bool world = (!far.inertial || far.inertial->mass == 0.0) && neighbours_.at(other).size() == 1;
+        if (!world)
+          checker_.fail(info->line, "joint " + quoted(info->name) + " (floating) leads to link " + quoted(other) +
+                                        ", which is not a massless world link without other joints; floating "
+                                        "joints are supported only there (the virtual dofs replace them)");
+        continue;
+      }
       Mode child_mode = mode;
       if (mode == Mode::kNormal && legs_.count(other))
         child_mode = options_.leg_mode == LegMode::kDrop ? Mode::kDropped : Mode::kLocked;
@@ -426,6 +437,36 @@ std::string root_link(const UrdfChecker& checker, const urdf::ModelInterface& ur
   return checker.root();
 }
 
+/// The names of the virtual dofs and bodies wbm adds (heel_x, ..., upper_body_yaw) are not
+/// available to the URDF's joints and links: a clash is an error naming the line (the model
+/// builder would only say "duplicate").
+void check_virtual_names(const UrdfChecker& checker, const TreeBuilder& tree, const std::string& root, double height) {
+  ModelBuilder probe("virtual base");
+  add_virtual_base(probe, height, root, Inertial{}, Inertial{});
+  const Model base = probe.build();
+  std::set<std::string> dofs, bodies;
+  for (const Dof& dof : base.dofs()) dofs.insert(dof.name);
+  for (const Body& body : base.bodies())
+    if (body.name != root) bodies.insert(body.name);
+  auto list = [](const std::set<std::string>& names) {
+    std::string text;
+    for (const std::string& name : names) text += (text.empty() ? "" : ", ") + name;
+    return text;
+  };
+  for (const BodySpec& spec : tree.specs_)
+    if (spec.joint && !spec.joint->mimic && dofs.count(spec.joint->name))
+      checker.fail(checker.joint(spec.joint->name).line,
+                   "joint " + quoted(spec.joint->name) + ": the name of one of the virtual dofs wbm adds (" + list(dofs) +
+                       "); rename the joint");
+  auto check_link = [&](const std::string& name) {
+    if (bodies.count(name) && checker.has_link(name))
+      checker.fail(checker.link_line(name), "link " + quoted(name) + ": the name of one of the virtual bodies wbm adds (" +
+                                                list(bodies) + "); rename the link");
+  };
+  for (const BodySpec& spec : tree.specs_) check_link(spec.body.name);
+  for (const Frame& frame : tree.frames_) check_link(frame.name);
+}
+
 }  // namespace
 
 Model load_urdf(const std::string& path, const UrdfImportOptions& options) {
@@ -461,6 +502,7 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
     throw ParseError(source + ": the root height above the ground must be > 0 m (the legs' lowest link is above the root; "
                               "give the root height explicitly)");
 
+  check_virtual_names(checker, tree, root, height);
   ModelBuilder builder(urdf->getName());
   const int ub = add_virtual_base(builder, height, root, Inertial{}, tree.specs_[0].body.inertial);
   // Number the dofs in body order; mimic joints share their master's dof.

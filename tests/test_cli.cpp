@@ -146,7 +146,7 @@ TEST(Cli, ExportWholeTreeWithVirtualDofs) {
   EXPECT_NE(xml.find("<joint name=\"heel_yaw\" type=\"continuous\">"), std::string::npos);
   const CliRun info = wbm_cli("model info '" + file + "' --root world");
   EXPECT_NE(info.status, 0);
-  EXPECT_NE(info.err.find("duplicate dof 'heel_x'"), std::string::npos) << info.err;
+  EXPECT_NE(info.err.find(":8: joint 'heel_x': the name of one of the virtual dofs wbm adds"), std::string::npos) << info.err;
   std::remove(file.c_str());
 }
 
