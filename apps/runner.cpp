@@ -34,6 +34,17 @@ using nlohmann::json;
   throw ConfigError(s.source + ":" + std::to_string(line) + ": " + message);
 }
 
+/// Runs `bind` (which looks names of the scenario up in the model) and turns a library error
+/// into "FILE:LINE: field: message".
+template <class Bind>
+auto bound(const Scenario& s, int line, const std::string& field, Bind bind) {
+  try {
+    return bind();
+  } catch (const Error& e) {
+    fail(s, line, field + ": " + e.what());
+  }
+}
+
 std::unique_ptr<TaskElement> make_element(const Model& model, const ScenarioTask& t) {
   std::unique_ptr<TaskElement> e;
   if (t.type == "position") e = std::make_unique<PositionTask>(model, t.name, t.frame, t.reference);
@@ -133,21 +144,24 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
   const Model& model = *run->model;
   run->controller = std::make_unique<Controller>(model, s.solver);
   Controller& c = *run->controller;
-  for (const ScenarioTask& t : s.tasks) {
-    c.add_task(make_element(model, t), t.filter);
+  for (size_t i = 0; i < s.tasks.size(); ++i) {
+    const ScenarioTask& t = s.tasks[i];
+    c.add_task(bound(s, t.line, "tasks[" + std::to_string(i) + "]", [&] { return make_element(model, t); }), t.filter);
     run->element_types.push_back(t.type);
   }
   if (s.criterion == "squared") c.set_criterion(std::make_unique<JointCenterCriterion>(model));
   else c.set_criterion(std::make_unique<CubicJointLimitCriterion>(model, s.criterion_band));
   Eigen::VectorXd q0 = model.home();
-  for (const auto& [dof, value] : s.initial) q0[model.dof_index(dof)] = value;
+  for (const auto& [dof, value] : s.initial)
+    q0[bound(s, s.initial_line, "initial", [&] { return model.dof_index(dof); })] = value;
   c.reset(q0);
   Command cmd = c.make_command();
   cmd.external_velocity.setZero(model.num_dofs());
   TaskStack& stack = c.tasks();
   for (int i = 0; i < stack.num_elements(); ++i)
     cmd.task_active.segment(stack.row_offset(i), stack.element(i).dim()).setConstant(s.tasks[i].active);
-  for (const std::string& d : s.frozen) cmd.free_dofs[model.dof_index(d)] = false;
+  for (const std::string& d : s.frozen)
+    cmd.free_dofs[bound(s, s.frozen_line, "frozen", [&] { return model.dof_index(d); })] = false;
 
   // Resolve every name of the timeline before running, so errors come before any output.
   struct Resolved {
@@ -177,8 +191,10 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
       for (int row : resolve_rows(s, c, sel)) r.on.push_back(row);
     for (const RowSelection& sel : ev.deactivate)
       for (int row : resolve_rows(s, c, sel)) r.off.push_back(row);
-    for (const std::string& d : ev.freeze) r.freeze.push_back(model.dof_index(d));
-    for (const std::string& d : ev.release) r.release.push_back(model.dof_index(d));
+    for (const std::string& d : ev.freeze)
+      r.freeze.push_back(bound(s, ev.line, "freeze", [&] { return model.dof_index(d); }));
+    for (const std::string& d : ev.release)
+      r.release.push_back(bound(s, ev.line, "release", [&] { return model.dof_index(d); }));
     events.push_back(r);
   }
 
@@ -191,8 +207,11 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
     // Spacing: lateral distance of the two foot frames in the heel frame, home pose.
     const Data& d = c.data();
     const Transform X_HW = d.X_WB[model.virtual_dofs().heel_body].inverse();
-    const double yl = (X_HW * frame_pose(model, d, model.frame_index(s.feet.left_frame)).p).y();
-    const double yr = (X_HW * frame_pose(model, d, model.frame_index(s.feet.right_frame)).p).y();
+    auto foot = [&](const std::string& frame) {
+      return bound(s, s.feet.line, "feet", [&] { return model.frame_index(frame); });
+    };
+    const double yl = (X_HW * frame_pose(model, d, foot(s.feet.left_frame)).p).y();
+    const double yr = (X_HW * frame_pose(model, d, foot(s.feet.right_frame)).p).y();
     feet.spacing = std::abs(yl - yr);
   }
   run->feet = feet;
@@ -211,6 +230,7 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
   ControllerStatus last_status;
   std::uint32_t walking_flags = 0;
 
+  if (options.check_only) return run;
   const int steps = static_cast<int>(std::lround(s.duration / s.dt));
   const int n_el = stack.num_elements();
   auto record = [&](double t, std::uint32_t flags, double us) {

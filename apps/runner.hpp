@@ -44,6 +44,9 @@ struct ScenarioRun {
 
 struct RunOptions {
   bool progress = false;  ///< progress bar on stderr
+  /// Build the model, the controller and the modules and look up every name, then return
+  /// without simulating (the run holds no cycles): to check several files before any runs.
+  bool check_only = false;
 };
 
 /// Builds the model and controller and simulates the scenario.

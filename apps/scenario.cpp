@@ -172,8 +172,12 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
   if (const YAML::Node initial = root["initial"]) {
     if (!initial.IsMap()) r.fail(initial, "initial", "expected a mapping dof: value");
     for (const auto& kv : initial) s.initial.emplace_back(kv.first.Scalar(), r.number(kv.second, "initial." + kv.first.Scalar()));
+    s.initial_line = r.line(initial);
   }
-  if (root["frozen"]) s.frozen = r.strings(root["frozen"], "frozen");
+  if (root["frozen"]) {
+    s.frozen = r.strings(root["frozen"], "frozen");
+    s.frozen_line = r.line(root["frozen"]);
+  }
   if (const YAML::Node balance = root["balance"]) {
     r.only(balance, "balance", {"enabled", "compensate", "gain", "margin"});
     s.balance.configured = true;
@@ -185,6 +189,7 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
   if (const YAML::Node feet = root["feet"]) {
     r.only(feet, "feet", {"length", "width", "spacing", "left_frame", "right_frame"});
     FootGeometry& g = s.feet.geometry;
+    s.feet.line = r.line(feet);
     if (feet["length"]) g.length = r.positive(feet["length"], "feet.length");
     if (feet["width"]) g.width = r.positive(feet["width"], "feet.width");
     if (feet["spacing"]) g.spacing = r.positive(feet["spacing"], "feet.spacing");
@@ -221,6 +226,7 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
     const std::string field = "tasks[" + std::to_string(i) + "]";
     r.only(t, field, {"name", "type", "frame", "reference", "dofs", "gain", "filter", "active"});
     ScenarioTask task;
+    task.line = r.line(t);
     if (!t["name"]) r.fail(t, field + ".name", "missing");
     if (!t["type"]) r.fail(t, field + ".type", "missing (expected position, axis, attitude, com or joints)");
     task.name = r.text(t["name"], field + ".name");

@@ -24,6 +24,7 @@ struct ScenarioTask {
   double gain = 10.0;
   FilterParameters filter;
   bool active = false;
+  int line = 0;  ///< of the entry in the file, for messages about names the model lacks
 };
 
 /// A row selection "element" (all rows) or "element.component" (x/y/z, roll/pitch/yaw,
@@ -56,6 +57,7 @@ struct BalanceSettings {
 struct FeetSettings {
   FootGeometry geometry;
   std::string left_frame, right_frame;  ///< e.g. the URDF's ankle or sole links
+  int line = 0;
 };
 
 struct WalkingSettings {
@@ -77,6 +79,7 @@ struct Scenario {
   double criterion_band = 0.3;
   std::vector<std::pair<std::string, double>> initial;  ///< dof values replacing the home pose
   std::vector<std::string> frozen;                      ///< initially frozen dofs
+  int initial_line = 0, frozen_line = 0;                ///< for messages about unknown dofs
   std::vector<ScenarioTask> tasks;
   std::vector<ScenarioEvent> events;                    ///< sorted by time
   BalanceSettings balance;

@@ -162,9 +162,13 @@ int model_export(ModelSource& source, const std::string& output, const wbm::Urdf
 }
 
 int run_scenarios(const std::vector<std::string>& files, const std::string& out, bool no_report) {
-  // Parse every file first, so that a bad file stops the run before anything is written.
+  // Parse every file and look up its names in its model first, so that a bad file stops
+  // the run before anything is printed, simulated or written.
   std::vector<wbm::Scenario> scenarios;
   for (const std::string& f : files) scenarios.push_back(wbm::load_scenario(f));
+  wbm::RunOptions check;
+  check.check_only = true;
+  for (const wbm::Scenario& s : scenarios) wbm::run_scenario(s, check);
   for (const wbm::Scenario& s : scenarios) {
     const std::string dir = files.size() == 1 ? out : out + "/" + s.name;
     std::cerr << "scenario " << s.name << " (" << s.duration << " s at dt = " << s.dt * 1e3 << " ms)\n";

@@ -172,6 +172,24 @@ TEST(Cli, WrongConfigurationSizeFails) {
   EXPECT_NE(r.err.find("--q has 3 values; the model has 21 dofs"), std::string::npos) << r.err;
 }
 
+// Several scenario files: a name the model lacks in the second file stops the run before
+// the first one is simulated or anything is written (exit 1, the file and line named).
+TEST(Cli, RunChecksEveryScenarioBeforeRunningAny) {
+  const std::string dir = testing::TempDir() + "wbm_cli_run_check_" + std::to_string(getpid());
+  const std::string good = dir + "_good.yaml", bad = dir + "_bad.yaml", out = dir + "_out";
+  std::ofstream(good) << "name: good\nduration: 0.1\ntasks: [{name: a, type: position, frame: l_hand_ref}]\n";
+  std::ofstream(bad) << "name: bad\nduration: 0.1\ntasks:\n  - {name: a, type: position, frame: no_such_frame}\n";
+  const CliRun r = wbm_cli("run '" + good + "' '" + bad + "' --out '" + out + "'");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.err.find("_bad.yaml:4: tasks[0]: model 'paper_asimo_like' has no frame named 'no_such_frame'"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(r.err.find("scenario good"), std::string::npos) << r.err;
+  EXPECT_NE(access(out.c_str(), F_OK), 0) << out << " was created";
+  std::remove(good.c_str());
+  std::remove(bad.c_str());
+}
+
 TEST(Cli, MissingSubcommandFails) {
   EXPECT_NE(wbm_cli("").status, 0);
   EXPECT_NE(wbm_cli("model").status, 0);

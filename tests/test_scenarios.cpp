@@ -302,16 +302,48 @@ TEST(Scenarios, UnknownNamesInTheTimelineAreReportedBeforeRunning) {
        "bad.yaml:4: targets.a: expected 3 values, got 2"},
       {"name: x\ntasks: [{name: a, type: position, frame: l_hand_ref}]\ntimeline:\n  - t: 1\n    activate: [a.w]\n",
        "bad.yaml:5: task element 'a' has no row 'w'"},
-      {"name: x\ntasks: [{name: a, type: position, frame: no_frame}]\n", "has no frame named 'no_frame'"},
+      // Names the model lacks: the scenario's line and field, then the model's message.
+      {"name: x\ntasks:\n  - {name: b, type: axis, frame: head_camera}\n  - {name: a, type: position, frame: no_frame}\n",
+       "bad.yaml:4: tasks[1]: model 'paper_asimo_like' has no frame named 'no_frame'"},
+      {"name: x\ntasks:\n  - {name: a, type: position, frame: l_hand_ref, reference: nope}\n",
+       "bad.yaml:3: tasks[0]: model 'paper_asimo_like' has no frame named 'nope'"},
+      {"name: x\ntasks:\n  - {name: a, type: joints, dofs: [l_elbow, nope]}\n",
+       "bad.yaml:3: tasks[0]: model 'paper_asimo_like' has no dof named 'nope'"},
+      {"name: x\nfrozen: [heel_x, nope]\ntasks: [{name: a, type: position, frame: l_hand_ref}]\n",
+       "bad.yaml:2: frozen: model 'paper_asimo_like' has no dof named 'nope'"},
+      {"name: x\ninitial: {nope: 0.1}\ntasks: [{name: a, type: position, frame: l_hand_ref}]\n",
+       "bad.yaml:2: initial: model 'paper_asimo_like' has no dof named 'nope'"},
+      {"name: x\nfeet: {left_frame: nope, right_frame: r_hand}\ntasks: [{name: a, type: position, frame: l_hand_ref}]\n",
+       "bad.yaml:2: feet: model 'paper_asimo_like' has no frame named 'nope'"},
+      {"name: x\ntasks: [{name: a, type: position, frame: l_hand_ref}]\ntimeline:\n  - t: 1\n    release: [nope]\n",
+       "bad.yaml:4: release: model 'paper_asimo_like' has no dof named 'nope'"},
   };
   for (const BadScenario& c : cases) {
-    try {
-      run_scenario(parse_scenario(c.yaml, "bad.yaml", "."));
-      ADD_FAILURE() << "no error for:\n" << c.yaml;
-    } catch (const Error& e) {
-      EXPECT_NE(std::string(e.what()).find(c.message), std::string::npos) << "got: " << e.what() << "\nwanted: " << c.message;
+    // check_only looks every name up as the full run does (the CLI checks all files first).
+    for (const bool check_only : {true, false}) {
+      RunOptions options;
+      options.check_only = check_only;
+      try {
+        run_scenario(parse_scenario(c.yaml, "bad.yaml", "."), options);
+        ADD_FAILURE() << "no error (check_only " << check_only << ") for:\n" << c.yaml;
+      } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find(c.message), std::string::npos) << "got: " << e.what() << "\nwanted: " << c.message;
+      }
     }
   }
+}
+
+TEST(Scenarios, CheckOnlyBuildsEverythingAndSimulatesNothing) {
+  const Scenario s = parse_scenario(
+      "name: x\nduration: 2\ntasks: [{name: a, type: position, frame: l_hand_ref}]\ntimeline:\n  - t: 0.5\n"
+      "    activate: [a]\n    relative_targets: {a: [0.1, 0, 0]}\n",
+      "ok.yaml", ".");
+  RunOptions options;
+  options.check_only = true;
+  const auto checked = run_scenario(s, options);
+  ASSERT_TRUE(checked->controller);
+  EXPECT_EQ(checked->num_cycles(), 0);
+  EXPECT_EQ(run_scenario(s)->num_cycles(), 2001);
 }
 
 }  // namespace
