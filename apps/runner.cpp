@@ -140,7 +140,8 @@ double position_condition_number(const Model& model, const Data& data, int frame
 std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& options) {
   auto run = std::make_unique<ScenarioRun>();
   run->scenario = s;
-  run->model = std::make_unique<Model>(s.urdf.empty() ? make_paper_model() : load_urdf(s.urdf, s.urdf_options));
+  run->model = std::make_unique<Model>(
+      s.urdf.empty() ? make_paper_model() : bound(s, s.robot_line, "robot", [&] { return load_urdf(s.urdf, s.urdf_options); }));
   const Model& model = *run->model;
   run->controller = std::make_unique<Controller>(model, s.solver);
   Controller& c = *run->controller;

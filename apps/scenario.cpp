@@ -135,6 +135,7 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
   if (root["description"]) s.description = r.text(root["description"], "description");
   if (const YAML::Node robot = root["robot"]) {
     r.only(robot, "robot", {"builtin", "urdf", "root", "legs", "drop_legs", "root_height", "default_limits"});
+    s.robot_line = r.line(robot);
     if (robot["builtin"] && r.text(robot["builtin"], "robot.builtin") != "paper")
       r.fail(robot["builtin"], "robot.builtin", "expected 'paper' (the only built-in model)");
     if (robot["urdf"]) {

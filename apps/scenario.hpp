@@ -71,6 +71,7 @@ struct Scenario {
   std::string source;           ///< the file, for messages
   std::string urdf;             ///< empty: built-in paper model
   UrdfImportOptions urdf_options;
+  int robot_line = 0;           ///< for messages of the URDF import
   double dt = 0.001;
   double duration = 1.0;
   int record_every = 10;

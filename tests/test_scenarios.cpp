@@ -315,6 +315,8 @@ TEST(Scenarios, UnknownNamesInTheTimelineAreReportedBeforeRunning) {
        "bad.yaml:2: initial: model 'paper_asimo_like' has no dof named 'nope'"},
       {"name: x\nfeet: {left_frame: nope, right_frame: r_hand}\ntasks: [{name: a, type: position, frame: l_hand_ref}]\n",
        "bad.yaml:2: feet: model 'paper_asimo_like' has no frame named 'nope'"},
+      {"name: x\nrobot: {urdf: no_such.urdf}\ntasks: [{name: a, type: position, frame: l_hand_ref}]\n",
+       "bad.yaml:2: robot: ./no_such.urdf: cannot open the file"},
       {"name: x\ntasks: [{name: a, type: position, frame: l_hand_ref}]\ntimeline:\n  - t: 1\n    release: [nope]\n",
        "bad.yaml:4: release: model 'paper_asimo_like' has no dof named 'nope'"},
   };
