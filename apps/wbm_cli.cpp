@@ -105,6 +105,7 @@ Eigen::VectorXd parse_configuration(const std::string& text, const wbm::Model& m
     } catch (const std::exception&) {
       throw wbm::ConfigError("--q: '" + item + "' is not a number");
     }
+    if (!std::isfinite(values.back())) throw wbm::ConfigError("--q: '" + item + "' is not a finite number");
   }
   if (static_cast<int>(values.size()) != model.num_dofs())
     throw wbm::ConfigError("--q has " + std::to_string(values.size()) + " values; the model has " +

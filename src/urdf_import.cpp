@@ -497,6 +497,11 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
   TreeBuilder tree(*urdf, checker, options);
   tree.build(root);
   double height = options.root_height;
+  if (!std::isnan(height) && !(std::isfinite(height) && height > 0.0)) {
+    std::ostringstream msg;
+    msg << source << ": the root height (root_height, --root-height) must be finite and > 0 m, got " << height;
+    throw ParseError(msg.str());
+  }
   if (std::isnan(height)) height = std::isfinite(tree.lowest_leg_z_) ? -tree.lowest_leg_z_ : 1.0;
   if (!(height > 0.0))
     throw ParseError(source + ": the root height above the ground must be > 0 m (the legs' lowest link is above the root; "

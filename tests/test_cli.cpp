@@ -190,6 +190,13 @@ TEST(Cli, RunChecksEveryScenarioBeforeRunningAny) {
   std::remove(bad.c_str());
 }
 
+TEST(Cli, NonFiniteConfigurationFails) {
+  const CliRun r = wbm_cli("model fk --q nan,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0 --json");
+  EXPECT_NE(r.status, 0);
+  EXPECT_NE(r.err.find("--q: 'nan' is not a finite number"), std::string::npos) << r.err;
+  EXPECT_TRUE(r.out.empty()) << r.out;
+}
+
 TEST(Cli, MissingSubcommandFails) {
   EXPECT_NE(wbm_cli("").status, 0);
   EXPECT_NE(wbm_cli("model").status, 0);

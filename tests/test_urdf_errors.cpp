@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <set>
 #include <sstream>
 #include <typeinfo>
@@ -188,6 +189,22 @@ TEST(UrdfErrors, MissingFile) {
     FAIL();
   } catch (const wbm::ParseError& e) {
     EXPECT_NE(std::string(e.what()).find("/nonexistent/robot.urdf: cannot open the file"), std::string::npos) << e.what();
+  }
+}
+
+TEST(UrdfErrors, RootHeightGivenMustBeFiniteAndPositive) {
+  for (const double height : {-1.0, 0.0, std::numeric_limits<double>::infinity()}) {
+    wbm::UrdfImportOptions options;
+    options.root_height = height;
+    const std::string valid = wbm_test::source_path("models/third_party/nao/nao.urdf");
+    try {
+      wbm::load_urdf(valid, options);
+      ADD_FAILURE() << "root height " << height << " accepted";
+    } catch (const wbm::ParseError& e) {
+      EXPECT_NE(std::string(e.what()).find(": the root height (root_height, --root-height) must be finite and > 0 m, got"),
+                std::string::npos)
+          << e.what();
+    }
   }
 }
 
