@@ -440,14 +440,13 @@ std::string root_link(const UrdfChecker& checker, const urdf::ModelInterface& ur
 /// The names of the virtual dofs and bodies wbm adds (heel_x, ..., upper_body_yaw) are not
 /// available to the URDF's joints and links: a clash is an error naming the line (the model
 /// builder would only say "duplicate").
-void check_virtual_names(const UrdfChecker& checker, const TreeBuilder& tree, const std::string& root, double height) {
+void check_virtual_names(const UrdfChecker& checker, const TreeBuilder& tree, double height) {
   ModelBuilder probe("virtual base");
-  add_virtual_base(probe, height, root, Inertial{}, Inertial{});
+  add_virtual_base(probe, height, "\x01", Inertial{}, Inertial{});  // a name no XML file can hold
   const Model base = probe.build();
   std::set<std::string> dofs, bodies;
   for (const Dof& dof : base.dofs()) dofs.insert(dof.name);
-  for (const Body& body : base.bodies())
-    if (body.name != root) bodies.insert(body.name);
+  for (int b = 0; b + 1 < base.num_bodies(); ++b) bodies.insert(base.body(b).name);  // the last is the root link
   auto list = [](const std::set<std::string>& names) {
     std::string text;
     for (const std::string& name : names) text += (text.empty() ? "" : ", ") + name;
@@ -507,7 +506,7 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
     throw ParseError(source + ": the root height above the ground must be > 0 m (the legs' lowest link is above the root; "
                               "give the root height explicitly)");
 
-  check_virtual_names(checker, tree, root, height);
+  check_virtual_names(checker, tree, height);
   ModelBuilder builder(urdf->getName());
   const int ub = add_virtual_base(builder, height, root, Inertial{}, tree.specs_[0].body.inertial);
   // Number the dofs in body order; mimic joints share their master's dof.

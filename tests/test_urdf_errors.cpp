@@ -66,6 +66,8 @@ const std::vector<Case>& catalogue() {
        "", {}},
       {"virtual_body_name.urdf",
        "virtual_body_name.urdf:7: link 'heel': the name of one of the virtual bodies wbm adds (heel, heel_x", "", {}},
+      {"virtual_body_name_root.urdf",
+       "virtual_body_name_root.urdf:3: link 'heel': the name of one of the virtual bodies wbm adds", "", {}},
       {"negative_mass.urdf", "negative_mass.urdf:8: link 'l1': negative mass -0.5", "", {}},
       {"inertial_without_mass.urdf", "inertial_without_mass.urdf:7: link 'l1': <inertial> lacks <mass>", "", {}},
       {"lower_above_upper.urdf", "lower_above_upper.urdf:11: joint 'j1': lower limit 1.5 is above upper limit -1.5", "",
