@@ -153,8 +153,8 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
   if (s.criterion == "squared") c.set_criterion(std::make_unique<JointCenterCriterion>(model));
   else c.set_criterion(std::make_unique<CubicJointLimitCriterion>(model, s.criterion_band));
   Eigen::VectorXd q0 = model.home();
-  for (const auto& [dof, value] : s.initial)
-    q0[bound(s, s.initial_line, "initial", [&] { return model.dof_index(dof); })] = value;
+  for (const auto& entry : s.initial)
+    q0[bound(s, s.initial_line, "initial", [&] { return model.dof_index(entry.first); })] = entry.second;
   c.reset(q0);
   Command cmd = c.make_command();
   cmd.external_velocity.setZero(model.num_dofs());

@@ -75,9 +75,9 @@ bool parse_own_flags(int& argc, char** argv, FixtureSpec& custom, std::string& e
   if (flags.empty()) return false;
   static const char* known[] = {"urdf",      "root",        "legs",        "hands", "head", "com", "posture",
                                 "default_limits", "drop_legs", "root_height", "id"};
-  for (const auto& [name, value] : flags)
-    if (std::none_of(std::begin(known), std::end(known), [&](const char* k) { return name == k; })) {
-      error = "unknown flag --wbm_" + name;
+  for (const auto& flag : flags)
+    if (std::none_of(std::begin(known), std::end(known), [&](const char* k) { return flag.first == k; })) {
+      error = "unknown flag --wbm_" + flag.first;
       return false;
     }
   if (!flags.count("urdf")) {

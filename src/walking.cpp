@@ -13,7 +13,7 @@ double wrap(double a) { return std::remainder(a, 2.0 * M_PI); }
 }  // namespace
 
 WalkingModule::WalkingModule(const Model& model, const FootGeometry& feet, const WalkingParameters& p)
-    : model_(model), feet_(feet), p_(p) {
+    : feet_(feet), p_(p) {
   const VirtualDofs& v = model.virtual_dofs();
   heel_dofs_[0] = v.heel_x;
   heel_dofs_[1] = v.heel_y;

@@ -81,7 +81,6 @@ class WalkingModule {
   void set_heel_free(Command& command, bool free) const;
   bool feet_at(const Vector2& heel, double yaw) const;
 
-  const Model& model_;
   FootGeometry feet_;
   WalkingParameters p_;
   int heel_dofs_[3];
