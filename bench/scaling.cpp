@@ -29,7 +29,7 @@ wbm::Model make_tree(int joints, int branches, unsigned seed) {
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
   auto random_unit = [&] {
     Vector3 a;
-    do a = Vector3(unit(rng), unit(rng), unit(rng));
+    do a = Vector3{unit(rng), unit(rng), unit(rng)};  // braces: drawn in this order with every compiler
     while (a.norm() < 0.1 || a.norm() > 1.0);
     return Vector3(a.normalized());
   };
@@ -78,7 +78,34 @@ wbm::Model make_tree(int joints, int branches, unsigned seed) {
 
 class ScalingFixture {
  public:
+  /// Draws the case's tree and checks that the controller follows the moving tips (within
+  /// 1 cm) over one period of their motion without the damped path in most cycles. A tree
+  /// that does not (the smallest ones can: branches of two joints whose tips lean on the
+  /// torso's small virtual ranges) is redrawn with the next seed, up to kMaxDraws times, so
+  /// that the dofs sweep times the normal cycle; many rows (35, 40) damp in about a third.
   explicit ScalingFixture(const ScalingCase& sc) : model(make_tree(sc.joints, sc.branches, 1234u + sc.joints)) {
+    constexpr int kMaxDraws = 8;
+    std::string rejected;
+    for (int draw = 0;; ++draw) {
+      const unsigned seed = 1234u + sc.joints + 1000u * draw;
+      if (draw > 0) model = make_tree(sc.joints, sc.branches, seed);
+      char line[320];
+      const bool tracks = run_sanity_check(sc, line, sizeof line);
+      if (tracks || draw + 1 == kMaxDraws) {
+        note(std::string(line) + (rejected.empty() ? "" : " (tree seed " + std::to_string(seed) + "; redrawn:" + rejected + ")"));
+        if (!tracks) throw std::runtime_error(sc.name + ": controller does not track the tips or damps in most cycles");
+        break;
+      }
+      rejected += " seed " + std::to_string(seed);
+    }
+  }
+
+  /// Builds the controller on `model`, moves the tips for 0.5 s and one period (4 s) and
+  /// records the states of the stage benchmarks; writes the summary into `line`. True if the
+  /// tips are followed within 1 cm and fewer than half the cycles are damped.
+  bool run_sanity_check(const ScalingCase& sc, char* line, std::size_t size) {
+    t = 0.0;
+    states.clear();
     controller = std::make_unique<wbm::Controller>(model);
     controller->set_criterion(std::make_unique<wbm::CubicJointLimitCriterion>(model, 0.0));  // as in fixtures.cpp
     const int elements = (sc.rows + 2) / 3;
@@ -92,10 +119,9 @@ class ScalingFixture {
     for (int heel : {v.heel_x, v.heel_y, v.heel_yaw}) command.free_dofs[heel] = false;
     base = controller->values();
 
-    // Sanity: the controller follows the moving tips.
     int damped = 0, frozen = 0;
     double tracking = 0.0;
-    const int cycles = 1500;
+    const int cycles = 500 + static_cast<int>(std::lround(2.0 * M_PI / kOmega / kDt));
     for (int k = 0; k < cycles; ++k) {
       next_targets();
       const wbm::ControllerStatus status = controller->update(command, kDt);
@@ -108,18 +134,19 @@ class ScalingFixture {
       if (k >= 1000 && k < 1032) states.push_back(controller->q());  // 32 states: their J stay in cache
     }
     record_stages(elements);
-    char line[256];
-    std::snprintf(line, sizeof line,
+    std::snprintf(line, size,
                   "%s: %d dofs (%d joints, %d branches), %d rows: max tracking error %.2g m, damped %.0f %%, "
                   "limit-frozen %.0f %%",
                   sc.name.c_str(), model.num_dofs(), sc.joints, sc.branches, sc.rows, tracking, 100.0 * damped / cycles,
                   100.0 * frozen / cycles);
-    note(line);
-    if (!(tracking < 1e-2)) throw std::runtime_error(sc.name + ": controller does not track the tips");
+    return tracking < 1e-2 && 2 * damped < cycles;
   }
 
   /// Inputs of the assemble and solve stages at the recorded states (as in fixtures.cpp).
   void record_stages(int elements) {
+    J.clear();
+    xdot.clear();
+    gradient.clear();
     data = std::make_unique<wbm::Data>(model);
     stack = std::make_unique<wbm::TaskStack>(model);
     for (int k = 0; k < elements; ++k)

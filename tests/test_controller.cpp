@@ -125,9 +125,9 @@ TEST(TrajectoryFilter, NoOvershootSpeedLimitContinuousVelocity) {
   for (int c = 0; c < 500; ++c) {
     FilterParameters p{w(rng), s(rng), 2 + c % 3};
     TrajectoryFilter f(TargetKind::kVector, 3, p);
-    const Vector3 start(u(rng), u(rng), u(rng));
+    const Vector3 start{u(rng), u(rng), u(rng)};  // braces: drawn in this order
     f.reset(start, Vector3::Zero());
-    const Vector3 target(u(rng), u(rng), u(rng));
+    const Vector3 target{u(rng), u(rng), u(rng)};
     const double dt = 0.001;
     double previous_distance = (target - start).norm();
     Vector3 previous_velocity = Vector3::Zero();

@@ -855,10 +855,15 @@ TEST(Transform, RpyRoundTripIncludingGimbalLock) {
   std::mt19937_64 rng(17);
   std::uniform_real_distribution<double> angle(-M_PI, M_PI);
   std::vector<wbm::Matrix3> rotations;
-  for (int i = 0; i < 1000; ++i)
-    rotations.push_back(wbm::rotation_from_rpy(angle(rng), angle(rng) / 2, angle(rng)));
+  for (int i = 0; i < 1000; ++i) {
+    const double roll = angle(rng), pitch = angle(rng) / 2, yaw = angle(rng);  // drawn in this order
+    rotations.push_back(wbm::rotation_from_rpy(roll, pitch, yaw));
+  }
   for (double pitch : {M_PI / 2, -M_PI / 2, M_PI / 2 - 1e-9, -M_PI / 2 + 1e-12})
-    for (int i = 0; i < 50; ++i) rotations.push_back(wbm::rotation_from_rpy(angle(rng), pitch, angle(rng)));
+    for (int i = 0; i < 50; ++i) {
+      const double roll = angle(rng), yaw = angle(rng);
+      rotations.push_back(wbm::rotation_from_rpy(roll, pitch, yaw));
+    }
   for (const wbm::Matrix3& R : rotations) {
     const Vector3 rpy = wbm::rpy_from_rotation(R);
     const wbm::Matrix3 back = wbm::rotation_from_rpy(rpy.x(), rpy.y(), rpy.z());
