@@ -82,7 +82,7 @@ class ScalingFixture {
   /// 1 cm) over one period of their motion without the damped path in most cycles. A tree
   /// that does not (the smallest ones can: branches of two joints whose tips lean on the
   /// torso's small virtual ranges) is redrawn with the next seed, up to kMaxDraws times, so
-  /// that the dofs sweep times the normal cycle; many rows (35, 40) damp in about a third.
+  /// that the dofs sweep times the normal cycle; many rows (35, 40) damp in a third to a half.
   explicit ScalingFixture(const ScalingCase& sc) : model(make_tree(sc.joints, sc.branches, 1234u + sc.joints)) {
     constexpr int kMaxDraws = 8;
     std::string rejected;
