@@ -6,8 +6,8 @@ set -euo pipefail
 src=$1
 dir=$2
 if ! command -v clang++ >/dev/null; then
-  echo "clang_build: clang++ is not installed (Debian package clang; scripts/setup.sh installs it)" >&2
-  exit 1
+  echo "clang_build: clang++ is not installed (Debian package clang; scripts/setup.sh installs it): skipped" >&2
+  exit 77  # CTest: skipped
 fi
 CC=clang CXX=clang++ cmake -S "$src" -B "$dir" -DCMAKE_BUILD_TYPE=Release -DWBM_WARNINGS_AS_ERRORS=ON >/dev/null
 cmake --build "$dir" -j"$(nproc)"
