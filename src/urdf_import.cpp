@@ -44,6 +44,10 @@ class UrdfChecker {
     if (robot == nullptr) fail(1, "malformed XML: no root element");
     if (std::string(robot->Value()) != "robot")
       fail(robot->Row(), std::string("expected a <robot> root element, found <") + robot->Value() + ">");
+    for (const TiXmlElement* e = robot->FirstChildElement(); e; e = e->NextSiblingElement())
+      if (std::string(e->Value()).rfind("xacro:", 0) == 0)
+        fail(e->Row(), std::string("<") + e->Value() + "> is a xacro macro: expand the file first (`xacro " +
+                           "robot.urdf.xacro > robot.urdf`, package xacro)");
     for (const TiXmlElement* e = robot->FirstChildElement("link"); e; e = e->NextSiblingElement("link"))
       check_link(e);
     for (const TiXmlElement* e = robot->FirstChildElement("joint"); e; e = e->NextSiblingElement("joint"))
@@ -81,7 +85,10 @@ class UrdfChecker {
       const double v = std::strtod(token.c_str(), &end);
       if (end == token.c_str() || *end != '\0' || !std::isfinite(v))
         fail(e->Row(), what + ": <" + e->Value() + " " + attr + "> has '" + token +
-                           "' where a finite number was expected");
+                           "' where a finite number was expected" +
+                           (token.find("${") != std::string::npos || token.find("$(") != std::string::npos
+                                ? " (an unexpanded xacro expression: expand the file with xacro first)"
+                                : ""));
       values.push_back(v);
     }
     if (values.size() != count)

@@ -68,6 +68,11 @@ const std::vector<Case>& catalogue() {
        "virtual_body_name.urdf:7: link 'heel': the name of one of the virtual bodies wbm adds (heel, heel_x", "", {}},
       {"virtual_body_name_root.urdf",
        "virtual_body_name_root.urdf:3: link 'heel': the name of one of the virtual bodies wbm adds", "", {}},
+      {"xacro_macro.urdf", "xacro_macro.urdf:3: <xacro:property> is a xacro macro: expand the file first", "", {}},
+      {"xacro_expression.urdf",
+       "xacro_expression.urdf:10: joint 'j1': <origin xyz> has '${h}' where a finite number was expected (an "
+       "unexpanded xacro expression",
+       "", {}},
       {"negative_mass.urdf", "negative_mass.urdf:8: link 'l1': negative mass -0.5", "", {}},
       {"inertial_without_mass.urdf", "inertial_without_mass.urdf:7: link 'l1': <inertial> lacks <mass>", "", {}},
       {"lower_above_upper.urdf", "lower_above_upper.urdf:11: joint 'j1': lower limit 1.5 is above upper limit -1.5", "",
