@@ -410,7 +410,9 @@ json summarize(const ScenarioRun& run) {
 
 void write_outputs(const ScenarioRun& run, const std::string& directory, bool report) {
   namespace fs = std::filesystem;
-  fs::create_directories(directory);
+  std::error_code error;
+  fs::create_directories(directory, error);
+  if (error) throw ConfigError(directory + ": cannot create the output directory (" + error.message() + ")");
   const Scenario& s = run.scenario;
   const Model& model = *run.model;
   const TaskStack& stack = run.controller->tasks();

@@ -1,5 +1,8 @@
 // wbm: command-line tool. Subcommands: model info | model fk | model export.
+#include <unistd.h>
+
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
@@ -162,6 +165,24 @@ int model_export(ModelSource& source, const std::string& output, const wbm::Urdf
   return 0;
 }
 
+/// Fails unless `directory` is a directory or can be created as one (its nearest existing
+/// ancestor is a writable directory), so that a bad --out stops the run before it starts.
+void check_output_directory(const std::string& directory) {
+  namespace fs = std::filesystem;
+  std::error_code error;
+  fs::path path = fs::absolute(directory, error);
+  if (error) throw wbm::ConfigError(directory + ": not a usable output directory (" + error.message() + ")");
+  if (fs::exists(path, error)) {
+    if (!fs::is_directory(path, error)) throw wbm::ConfigError(directory + ": exists and is not a directory (--out)");
+  } else {
+    while (!path.empty() && !fs::exists(path, error)) path = path.parent_path();
+    if (!fs::is_directory(path, error))
+      throw wbm::ConfigError(directory + ": cannot be created: " + path.string() + " is not a directory (--out)");
+  }
+  if (access(path.c_str(), W_OK | X_OK) != 0)
+    throw wbm::ConfigError(directory + ": cannot write into " + path.string() + " (--out)");
+}
+
 int run_scenarios(const std::vector<std::string>& files, const std::string& out, bool no_report) {
   // Parse every file and look up its names in its model first, so that a bad file stops
   // the run before anything is printed, simulated or written.
@@ -169,7 +190,10 @@ int run_scenarios(const std::vector<std::string>& files, const std::string& out,
   for (const std::string& f : files) scenarios.push_back(wbm::load_scenario(f));
   wbm::RunOptions check;
   check.check_only = true;
-  for (const wbm::Scenario& s : scenarios) wbm::run_scenario(s, check);
+  for (const wbm::Scenario& s : scenarios) {
+    wbm::run_scenario(s, check);
+    check_output_directory(files.size() == 1 ? out : out + "/" + s.name);
+  }
   for (const wbm::Scenario& s : scenarios) {
     const std::string dir = files.size() == 1 ? out : out + "/" + s.name;
     std::cerr << "scenario " << s.name << " (" << s.duration << " s at dt = " << s.dt * 1e3 << " ms)\n";
@@ -238,6 +262,9 @@ int main(int argc, char** argv) {
     if (exp->parsed()) return model_export(export_source, export_out, export_options);
     if (run->parsed()) return run_scenarios(run_files, run_out, run_no_report);
   } catch (const wbm::Error& e) {
+    std::cerr << "wbm: error: " << e.what() << "\n";
+    return 1;
+  } catch (const std::exception& e) {  // not expected; an error message instead of an abort
     std::cerr << "wbm: error: " << e.what() << "\n";
     return 1;
   }

@@ -197,6 +197,23 @@ TEST(Cli, NonFiniteConfigurationFails) {
   EXPECT_TRUE(r.out.empty()) << r.out;
 }
 
+// --out naming a file: an error before anything runs, not an abort from std::filesystem.
+TEST(Cli, RunWithAnOutputThatIsAFileFails) {
+  const std::string base = testing::TempDir() + "wbm_cli_out_file_" + std::to_string(getpid());
+  const std::string scenario = base + ".yaml", file = base + ".txt";
+  std::ofstream(scenario) << "name: x\nduration: 0.1\ntasks: [{name: a, type: position, frame: l_hand_ref}]\n";
+  std::ofstream(file) << "not a directory\n";
+  for (const std::string& out : {file, file + "/sub"}) {
+    const CliRun r = wbm_cli("run '" + scenario + "' --out '" + out + "'");
+    EXPECT_EQ(r.status, 1) << r.err;
+    EXPECT_NE(r.err.find("wbm: error: " + out + ": "), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("is not a directory (--out)"), std::string::npos) << r.err;
+    EXPECT_EQ(r.err.find("scenario x"), std::string::npos) << r.err;
+  }
+  std::remove(scenario.c_str());
+  std::remove(file.c_str());
+}
+
 TEST(Cli, MissingSubcommandFails) {
   EXPECT_NE(wbm_cli("").status, 0);
   EXPECT_NE(wbm_cli("model").status, 0);
