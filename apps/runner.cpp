@@ -138,6 +138,10 @@ double position_condition_number(const Model& model, const Data& data, int frame
 }
 
 std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& options) {
+  const double cycles = s.duration / s.dt;  // parse_scenario checks this for files; here for Scenarios built in code
+  if (!(s.dt > 0.0 && cycles >= 0.5 && cycles <= kMaxScenarioCycles && s.record_every >= 1))
+    throw ConfigError(s.source + ": duration / dt must give 1 to " + std::to_string(kMaxScenarioCycles) +
+                      " cycles and record_every must be >= 1");
   auto run = std::make_unique<ScenarioRun>();
   run->scenario = s;
   run->model = std::make_unique<Model>(

@@ -150,8 +150,22 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
   }
   if (root["dt"]) s.dt = r.positive(root["dt"], "dt");
   if (root["duration"]) s.duration = r.positive(root["duration"], "duration");
+  // The run keeps every cycle in memory (about 1 KB each on the paper model): at most
+  // kMaxScenarioCycles per scenario (1000 s at 1 kHz), and at least one.
+  const double cycles = s.duration / s.dt;
+  if (!(cycles >= 0.5 && cycles <= kMaxScenarioCycles)) {
+    std::ostringstream msg;
+    msg << "duration / dt = " << s.duration << " s / " << s.dt << " s = " << cycles
+        << " cycles; a scenario runs 1 to " << kMaxScenarioCycles << " cycles";
+    r.fail(root["duration"] ? root["duration"] : root["dt"] ? root["dt"] : root, "duration", msg.str());
+  }
   s.record_every = std::max(1, static_cast<int>(std::lround(0.01 / s.dt)));
-  if (root["record_every"]) s.record_every = static_cast<int>(r.positive(root["record_every"], "record_every"));
+  if (root["record_every"]) {
+    const double every = r.number(root["record_every"], "record_every");
+    if (!(every >= 1 && every <= kMaxScenarioCycles && every == std::floor(every)))
+      r.fail(root["record_every"], "record_every", "expected a whole number of cycles >= 1");
+    s.record_every = static_cast<int>(every);
+  }
   if (const YAML::Node solver = root["solver"]) {
     r.only(solver, "solver", {"nullspace_gain", "singular_threshold", "max_damping", "jerk_limit", "limit_speeds"});
     if (solver["nullspace_gain"]) s.solver.nullspace_gain = r.number(solver["nullspace_gain"], "solver.nullspace_gain");

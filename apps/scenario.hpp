@@ -15,6 +15,9 @@
 
 namespace wbm {
 
+/// Most cycles one scenario may run (1000 s at 1 kHz): the run keeps every cycle in memory.
+constexpr int kMaxScenarioCycles = 1000000;
+
 struct ScenarioTask {
   std::string name;
   std::string type;  ///< position | axis | attitude | com | joints

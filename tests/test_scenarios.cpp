@@ -283,6 +283,16 @@ TEST(Scenarios, BadFilesNameTheLineAndField) {
       {"name: x\ntasks: [{name: a, type: position, frame: f}]\ntimeline:\n  - {targets: {a: [1, 2, 3]}}\n", "bad.yaml:4: timeline[0].t: missing"},
       {"name: x\nrobot: {builtin: asimo}\ntasks: [{name: a, type: position, frame: f}]\n", "bad.yaml:2: robot.builtin: expected 'paper'"},
       {"name: x\ncriterion: {type: cubic, band: 1.5}\ntasks: [{name: a, type: position, frame: f}]\n", "bad.yaml:2: criterion.band: expected a number in [0, 1)"},
+      // Sizes that overflowed the cycle count or hung the writer.
+      {"name: x\nduration: 1e9\ntasks: [{name: a, type: position, frame: f}]\n",
+       "bad.yaml:2: duration: duration / dt = 1e+09 s / 0.001 s = 1e+12 cycles; a scenario runs 1 to 1000000 cycles"},
+      {"name: x\ndt: 1e-300\ntasks: [{name: a, type: position, frame: f}]\n", "bad.yaml:2: duration: duration / dt = 1 s / 1e-300 s = 1e+300 cycles"},
+      {"name: x\ndt: 0.01\nduration: 0.001\ntasks: [{name: a, type: position, frame: f}]\n",
+       "bad.yaml:3: duration: duration / dt = 0.001 s / 0.01 s = 0.1 cycles"},
+      {"name: x\nrecord_every: 0.5\ntasks: [{name: a, type: position, frame: f}]\n",
+       "bad.yaml:2: record_every: expected a whole number of cycles >= 1"},
+      {"name: x\nrecord_every: 1e12\ntasks: [{name: a, type: position, frame: f}]\n",
+       "bad.yaml:2: record_every: expected a whole number of cycles >= 1"},
   };
   for (const BadScenario& c : cases) {
     try {
