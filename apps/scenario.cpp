@@ -279,6 +279,12 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
       if (!e["t"]) r.fail(e, field + ".t", "missing (the event time in seconds)");
       ev.time = r.number(e["t"], field + ".t");
       if (ev.time < 0.0) r.fail(e["t"], field + ".t", "expected a time >= 0 s");
+      if (ev.time >= s.duration - 0.5 * s.dt) {  // the last cycle starts at duration - dt
+        std::ostringstream msg;
+        msg << ev.time << " s is at or after the end of the scenario (duration " << s.duration
+            << " s): the event would never happen";
+        r.fail(e["t"], field + ".t", msg.str());
+      }
       if (e["targets"]) ev.targets = read_targets(r, e["targets"], field + ".targets");
       if (e["relative_targets"]) ev.relative_targets = read_targets(r, e["relative_targets"], field + ".relative_targets");
       if (e["activate"]) ev.activate = read_rows(r, e["activate"], field + ".activate");

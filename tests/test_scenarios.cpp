@@ -289,6 +289,8 @@ TEST(Scenarios, BadFilesNameTheLineAndField) {
       {"name: x\ndt: 1e-300\ntasks: [{name: a, type: position, frame: f}]\n", "bad.yaml:2: duration: duration / dt = 1 s / 1e-300 s = 1e+300 cycles"},
       {"name: x\ndt: 0.01\nduration: 0.001\ntasks: [{name: a, type: position, frame: f}]\n",
        "bad.yaml:3: duration: duration / dt = 0.001 s / 0.01 s = 0.1 cycles"},
+      {"name: x\nduration: 1\ntasks: [{name: a, type: position, frame: f}]\ntimeline:\n  - t: 5\n    activate: [a]\n",
+       "bad.yaml:5: timeline[0].t: 5 s is at or after the end of the scenario (duration 1 s)"},
       {"name: x\nrecord_every: 0.5\ntasks: [{name: a, type: position, frame: f}]\n",
        "bad.yaml:2: record_every: expected a whole number of cycles >= 1"},
       {"name: x\nrecord_every: 1e12\ntasks: [{name: a, type: position, frame: f}]\n",
@@ -306,11 +308,11 @@ TEST(Scenarios, BadFilesNameTheLineAndField) {
 
 TEST(Scenarios, UnknownNamesInTheTimelineAreReportedBeforeRunning) {
   const BadScenario cases[] = {
-      {"name: x\ntasks: [{name: a, type: position, frame: l_hand_ref}]\ntimeline:\n  - t: 1\n    targets: {b: [1, 2, 3]}\n",
+      {"name: x\ntasks: [{name: a, type: position, frame: l_hand_ref}]\ntimeline:\n  - t: 0.5\n    targets: {b: [1, 2, 3]}\n",
        "bad.yaml:4: targets: no task element named 'b'"},
-      {"name: x\ntasks: [{name: a, type: position, frame: l_hand_ref}]\ntimeline:\n  - t: 1\n    targets: {a: [1, 2]}\n",
+      {"name: x\ntasks: [{name: a, type: position, frame: l_hand_ref}]\ntimeline:\n  - t: 0.5\n    targets: {a: [1, 2]}\n",
        "bad.yaml:4: targets.a: expected 3 values, got 2"},
-      {"name: x\ntasks: [{name: a, type: position, frame: l_hand_ref}]\ntimeline:\n  - t: 1\n    activate: [a.w]\n",
+      {"name: x\ntasks: [{name: a, type: position, frame: l_hand_ref}]\ntimeline:\n  - t: 0.5\n    activate: [a.w]\n",
        "bad.yaml:5: task element 'a' has no row 'w'"},
       // Names the model lacks: the scenario's line and field, then the model's message.
       {"name: x\ntasks:\n  - {name: b, type: axis, frame: head_camera}\n  - {name: a, type: position, frame: no_frame}\n",
@@ -327,7 +329,7 @@ TEST(Scenarios, UnknownNamesInTheTimelineAreReportedBeforeRunning) {
        "bad.yaml:2: feet: model 'paper_asimo_like' has no frame named 'nope'"},
       {"name: x\nrobot: {urdf: no_such.urdf}\ntasks: [{name: a, type: position, frame: l_hand_ref}]\n",
        "bad.yaml:2: robot: ./no_such.urdf: cannot open the file"},
-      {"name: x\ntasks: [{name: a, type: position, frame: l_hand_ref}]\ntimeline:\n  - t: 1\n    release: [nope]\n",
+      {"name: x\ntasks: [{name: a, type: position, frame: l_hand_ref}]\ntimeline:\n  - t: 0.5\n    release: [nope]\n",
        "bad.yaml:4: release: model 'paper_asimo_like' has no dof named 'nope'"},
   };
   for (const BadScenario& c : cases) {

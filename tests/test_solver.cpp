@@ -513,6 +513,7 @@ TEST(Controller, ConfigurationErrorsThrow) {
   EXPECT_THROW(AxisTask(model, "x", "l_hand_ref", "no_such_reference"), ModelError);
   EXPECT_THROW(JointTask(model, "x", {"no_such_dof"}), ModelError);
   EXPECT_THROW(JointTask(model, "x", {}), ConfigError);
+  EXPECT_THROW(JointTask(model, "x", {"l_elbow", "head_pan", "l_elbow"}), ConfigError);  // two equal rows
   PositionTask task(model, "x", "l_hand_ref");
   EXPECT_THROW(task.set_gain(-1.0), ConfigError);
   EXPECT_THROW(task.set_gain(std::nan("")), ConfigError);

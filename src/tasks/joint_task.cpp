@@ -9,7 +9,12 @@ namespace wbm {
 JointTask::JointTask(const Model& model, std::string name, const std::vector<std::string>& dofs)
     : TaskElement(std::move(name), static_cast<int>(dofs.size()), static_cast<int>(dofs.size()), TargetKind::kVector) {
   if (dofs.empty()) throw ConfigError("joint task '" + this->name() + "': no dofs listed");
-  for (const std::string& d : dofs) dofs_.push_back(model.dof_index(d));
+  for (const std::string& d : dofs) {
+    const int index = model.dof_index(d);
+    for (const int earlier : dofs_)  // two equal rows: singular in every configuration
+      if (earlier == index) throw ConfigError("joint task '" + this->name() + "': dof '" + d + "' is listed twice");
+    dofs_.push_back(index);
+  }
 }
 
 void JointTask::value(const Model&, const Data& data, Eigen::Ref<Eigen::VectorXd> x) {
