@@ -494,6 +494,9 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
   }
   if (!urdf) throw ParseError(source + ": urdfdom rejected the file: " + urdfdom_message);
 
+  if (options.leg_mode == LegMode::kDrop && options.legs.empty())
+    throw ParseError(source + ": dropping the legs (leg_mode kDrop, --drop-legs) needs the legs: name the first link of "
+                              "each (legs, --legs)");
   for (const std::string& leg : options.legs)
     if (!checker.has_link(leg)) throw ParseError(source + ": leg link " + quoted(leg) + " is not defined in the URDF");
   const std::string root = root_link(checker, *urdf, options, source);

@@ -215,6 +215,21 @@ TEST(UrdfErrors, RootHeightGivenMustBeFiniteAndPositive) {
   }
 }
 
+TEST(UrdfErrors, DroppingLegsNeedsTheLegs) {
+  wbm::UrdfImportOptions options;
+  options.leg_mode = wbm::LegMode::kDrop;
+  try {
+    wbm::load_urdf(wbm_test::source_path("models/third_party/nao/nao.urdf"), options);
+    ADD_FAILURE() << "kDrop without legs accepted";
+  } catch (const wbm::ParseError& e) {
+    EXPECT_NE(std::string(e.what()).find("nao.urdf: dropping the legs (leg_mode kDrop, --drop-legs) needs the legs"),
+              std::string::npos)
+        << e.what();
+  }
+  options.legs = {"LPelvis", "RPelvis"};
+  EXPECT_NO_THROW(wbm::load_urdf(wbm_test::source_path("models/third_party/nao/nao.urdf"), options));
+}
+
 TEST(UrdfErrors, ParseErrorIsAModelErrorAndAnError) {
   EXPECT_THROW(wbm::load_urdf(malformed_path("bad_axis_zero.urdf")), wbm::ModelError);
   EXPECT_THROW(wbm::load_urdf(malformed_path("bad_axis_zero.urdf")), wbm::Error);

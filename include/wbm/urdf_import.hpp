@@ -25,7 +25,7 @@ struct UrdfImportOptions {
   /// First link of every leg subtree (e.g. "left_hip_pitch_link"); the subtree away from
   /// the root starting at this link is a leg. The link's own joint belongs to the leg.
   std::vector<std::string> legs;
-  LegMode leg_mode = LegMode::kLock;
+  LegMode leg_mode = LegMode::kLock;  ///< kDrop needs `legs` (else ParseError).
   /// Height of the root link origin above the ground [m]. NaN: from the legs (the lowest
   /// leg link origin at zero joint values), else 1 m.
   double root_height = std::numeric_limits<double>::quiet_NaN();
@@ -37,8 +37,10 @@ struct UrdfImportOptions {
 
 /// Loads a URDF file.
 /// @throws ParseError naming the file, the line and the element for malformed XML,
-///   unknown root/leg links, missing parents, kinematic loops, zero or non-unit axes,
-///   negative masses, lower limit above upper, missing limits.
+///   unknown root/leg links, missing parents, kinematic loops, zero axes or axes more than
+///   1 % from unit length (others are normalised), floating joints inside the tree, names
+///   of the virtual dofs/bodies, negative masses, lower limit above upper, missing limits,
+///   unexpanded xacro; and for kDrop without legs or a given root height that is not > 0.
 Model load_urdf(const std::string& path, const UrdfImportOptions& options = {});
 
 /// Same from a string; `source` names it in error messages.
