@@ -159,17 +159,20 @@ TEST(Cli, ShippedUrdfWithLegs) {
   EXPECT_EQ(fk["frames"].size(), 2u);
 }
 
-TEST(Cli, UnknownFrameFails) {
-  const CliRun r = wbm_cli("model fk --frames no_such_frame --json");
-  EXPECT_NE(r.status, 0);
-  EXPECT_NE(r.err.find("no frame named 'no_such_frame'"), std::string::npos) << r.err;
+/// `wbm ARGS` fails: non-zero exit, `message` on stderr, nothing on stdout.
+void expect_cli_error(const std::string& args, const std::string& message) {
+  const CliRun r = wbm_cli(args);
+  EXPECT_NE(r.status, 0) << args;
+  EXPECT_NE(r.err.find(message), std::string::npos) << r.err;
   EXPECT_TRUE(r.out.empty()) << r.out;
 }
 
+TEST(Cli, UnknownFrameFails) {
+  expect_cli_error("model fk --frames no_such_frame --json", "no frame named 'no_such_frame'");
+}
+
 TEST(Cli, WrongConfigurationSizeFails) {
-  const CliRun r = wbm_cli("model fk --q 1,2,3 --json");
-  EXPECT_NE(r.status, 0);
-  EXPECT_NE(r.err.find("--q has 3 values; the model has 21 dofs"), std::string::npos) << r.err;
+  expect_cli_error("model fk --q 1,2,3 --json", "--q has 3 values; the model has 21 dofs");
 }
 
 // Several scenario files: a name the model lacks in the second file stops the run before
@@ -191,10 +194,7 @@ TEST(Cli, RunChecksEveryScenarioBeforeRunningAny) {
 }
 
 TEST(Cli, NonFiniteConfigurationFails) {
-  const CliRun r = wbm_cli("model fk --q nan,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0 --json");
-  EXPECT_NE(r.status, 0);
-  EXPECT_NE(r.err.find("--q: 'nan' is not a finite number"), std::string::npos) << r.err;
-  EXPECT_TRUE(r.out.empty()) << r.out;
+  expect_cli_error("model fk --q nan,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0 --json", "--q: 'nan' is not a finite number");
 }
 
 // --out naming a file: an error before anything runs, not an abort from std::filesystem.
