@@ -138,8 +138,8 @@ double position_condition_number(const Model& model, const Data& data, int frame
 }
 
 std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& options) {
-  const double cycles = s.duration / s.dt;  // parse_scenario checks this for files; here for Scenarios built in code
-  if (!(s.dt > 0.0 && cycles >= 0.5 && cycles <= kMaxScenarioCycles && s.record_every >= 1))
+  const int steps = scenario_cycles(s.duration, s.dt);  // parse_scenario checks files; this, Scenarios built in code
+  if (steps == 0 || s.record_every < 1)
     throw ConfigError(s.source + ": duration / dt must give 1 to " + std::to_string(kMaxScenarioCycles) +
                       " cycles and record_every must be >= 1");
   auto run = std::make_unique<ScenarioRun>();
@@ -236,7 +236,6 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
   std::uint32_t walking_flags = 0;
 
   if (options.check_only) return run;
-  const int steps = static_cast<int>(std::lround(s.duration / s.dt));
   const int n_el = stack.num_elements();
   auto record = [&](double t, std::uint32_t flags, double us) {
     run->time.push_back(t);

@@ -108,6 +108,11 @@ std::vector<RowSelection> read_rows(const Reader& r, const YAML::Node& node, con
 
 }  // namespace
 
+int scenario_cycles(double duration, double dt) {
+  const double cycles = dt > 0.0 ? std::round(duration / dt) : 0.0;
+  return cycles >= 1.0 && cycles <= kMaxScenarioCycles ? static_cast<int>(cycles) : 0;
+}
+
 Scenario load_scenario(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw ConfigError(path + ": cannot open the scenario file");
@@ -150,12 +155,11 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
   }
   if (root["dt"]) s.dt = r.positive(root["dt"], "dt");
   if (root["duration"]) s.duration = r.positive(root["duration"], "duration");
-  // The run keeps every cycle in memory (about 1 KB each on the paper model): at most
-  // kMaxScenarioCycles per scenario (1000 s at 1 kHz), and at least one.
-  const double cycles = s.duration / s.dt;
-  if (!(cycles >= 0.5 && cycles <= kMaxScenarioCycles)) {
+  // The run keeps every cycle in memory (about 1 KB each on the paper model).
+  const int cycles = scenario_cycles(s.duration, s.dt);
+  if (cycles == 0) {
     std::ostringstream msg;
-    msg << "duration / dt = " << s.duration << " s / " << s.dt << " s = " << cycles
+    msg << "duration / dt = " << s.duration << " s / " << s.dt << " s = " << s.duration / s.dt
         << " cycles; a scenario runs 1 to " << kMaxScenarioCycles << " cycles";
     r.fail(root["duration"] ? root["duration"] : root["dt"] ? root["dt"] : root, "duration", msg.str());
   }
@@ -279,10 +283,11 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
       if (!e["t"]) r.fail(e, field + ".t", "missing (the event time in seconds)");
       ev.time = r.number(e["t"], field + ".t");
       if (ev.time < 0.0) r.fail(e["t"], field + ".t", "expected a time >= 0 s");
-      if (ev.time >= s.duration - 0.5 * s.dt) {  // the last cycle starts at duration - dt
+      const double last_start = (cycles - 1) * s.dt;  // events apply at the start of a cycle
+      if (ev.time > last_start + 1e-12) {
         std::ostringstream msg;
-        msg << ev.time << " s is at or after the end of the scenario (duration " << s.duration
-            << " s): the event would never happen";
+        msg << ev.time << " s is after the start of the scenario's last cycle (" << last_start
+            << " s; duration " << s.duration << " s): the event would never happen";
         r.fail(e["t"], field + ".t", msg.str());
       }
       if (e["targets"]) ev.targets = read_targets(r, e["targets"], field + ".targets");

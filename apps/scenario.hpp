@@ -18,6 +18,10 @@ namespace wbm {
 /// Most cycles one scenario may run (1000 s at 1 kHz): the run keeps every cycle in memory.
 constexpr int kMaxScenarioCycles = 1000000;
 
+/// Cycles a scenario of `duration` at `dt` runs (the nearest whole number); 0 if that is
+/// not 1 to kMaxScenarioCycles (or dt is not > 0). Cycle k (from 1) starts at (k - 1) dt.
+int scenario_cycles(double duration, double dt);
+
 struct ScenarioTask {
   std::string name;
   std::string type;  ///< position | axis | attitude | com | joints

@@ -188,14 +188,15 @@ int run_scenarios(const std::vector<std::string>& files, const std::string& out,
   // the run before anything is printed, simulated or written.
   std::vector<wbm::Scenario> scenarios;
   for (const std::string& f : files) scenarios.push_back(wbm::load_scenario(f));
+  auto directory = [&](const wbm::Scenario& s) { return files.size() == 1 ? out : out + "/" + s.name; };
   wbm::RunOptions check;
   check.check_only = true;
   for (const wbm::Scenario& s : scenarios) {
     wbm::run_scenario(s, check);
-    check_output_directory(files.size() == 1 ? out : out + "/" + s.name);
+    check_output_directory(directory(s));
   }
   for (const wbm::Scenario& s : scenarios) {
-    const std::string dir = files.size() == 1 ? out : out + "/" + s.name;
+    const std::string dir = directory(s);
     std::cerr << "scenario " << s.name << " (" << s.duration << " s at dt = " << s.dt * 1e3 << " ms)\n";
     wbm::RunOptions options;
     options.progress = true;

@@ -290,7 +290,11 @@ TEST(Scenarios, BadFilesNameTheLineAndField) {
       {"name: x\ndt: 0.01\nduration: 0.001\ntasks: [{name: a, type: position, frame: f}]\n",
        "bad.yaml:3: duration: duration / dt = 0.001 s / 0.01 s = 0.1 cycles"},
       {"name: x\nduration: 1\ntasks: [{name: a, type: position, frame: f}]\ntimeline:\n  - t: 5\n    activate: [a]\n",
-       "bad.yaml:5: timeline[0].t: 5 s is at or after the end of the scenario (duration 1 s)"},
+       "bad.yaml:5: timeline[0].t: 5 s is after the start of the scenario's last cycle (0.999 s; duration 1 s)"},
+      // Within the last dt before the end: no cycle starts there either.
+      {"name: x\ndt: 0.1\nduration: 1\ntasks: [{name: a, type: position, frame: f}]\ntimeline:\n  - t: 0.93\n"
+       "    activate: [a]\n",
+       "bad.yaml:6: timeline[0].t: 0.93 s is after the start of the scenario's last cycle (0.9 s"},
       {"name: x\nrecord_every: 0.5\ntasks: [{name: a, type: position, frame: f}]\n",
        "bad.yaml:2: record_every: expected a whole number of cycles >= 1"},
       {"name: x\nrecord_every: 1e12\ntasks: [{name: a, type: position, frame: f}]\n",
