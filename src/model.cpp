@@ -1,5 +1,6 @@
 #include "wbm/model.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <unordered_set>
@@ -249,6 +250,21 @@ std::array<Dof, 9> default_virtual_dofs(double height) {
   d[7] = {"upper_body_pitch", JointType::kRevolute, DofRole::kUpperBodyPitch, false, -0.2, 0.5, 1.0, 0.0};
   d[8] = {"upper_body_yaw", JointType::kRevolute, DofRole::kUpperBodyYaw, false, -0.7, 0.7, 1.0, 0.0};
   return d;
+}
+
+Eigen::VectorXd upright_base_configuration(const Model& model, const Eigen::VectorXd& q) {
+  if (q.size() != model.num_dofs())
+    throw ModelError("upright_base_configuration: q has " + std::to_string(q.size()) + " entries, the model " +
+                     std::to_string(model.num_dofs()) + " dofs");
+  Eigen::VectorXd upright = q;
+  const VirtualDofs& v = model.virtual_dofs();
+  for (const int i : v.all()) {
+    if (i < 0) continue;
+    const Dof& d = model.dof(i);
+    const double value = i == v.ub_z ? d.upper : 0.0;  // upright: full height, all else zero
+    upright[i] = d.continuous ? value : std::clamp(value, d.lower, d.upper);
+  }
+  return upright;
 }
 
 int add_virtual_base(ModelBuilder& builder, double height, const std::string& upper_body_name,

@@ -50,6 +50,14 @@ std::vector<ShippedModel> make_list() {
   // Atlas v4 with the MultiSense head (no camera links in this file).
   list.push_back(urdf("atlas", "atlas/atlas_v4_with_multisense.urdf", {"l_uglut", "r_uglut"}, "l_hand", "r_hand",
                       "head"));
+  // wbm's own dual-arm robot on a fixed base (root link "world", no legs, no head):
+  // a prismatic torso lift and two 7-joint arms with continuous wrist joints.
+  ShippedModel dual_arm;
+  dual_arm.id = "dual_arm";
+  dual_arm.path = source_path("models/dual_arm/dual_arm.urdf");
+  dual_arm.left_hand = "left_tool";
+  dual_arm.right_hand = "right_tool";
+  list.push_back(dual_arm);
   return list;
 }
 

@@ -1,7 +1,8 @@
 #pragma once
 /// @file
 /// The robot models shipped with wbm, with the import options they need: the built-in
-/// paper model and every URDF under models/third_party/. Shared by tests and benchmarks.
+/// paper model, every URDF under models/third_party/ and wbm's own dual-arm robot
+/// (models/dual_arm/). Shared by tests and benchmarks.
 
 #include <ostream>
 #include <string>

@@ -269,6 +269,40 @@ TEST_P(Kinematics, NamedFramesExist) {
     }
 }
 
+// upright_base_configuration: the root link (upper body) stands at (0, 0, root height) with
+// the world's axes, whatever the other joints do; only the virtual dofs change. With the
+// KDL comparison (poses relative to the root link), every link is then where the URDF puts
+// it, lifted by the root height: the fixed base of e.g. models/dual_arm.
+TEST_P(Kinematics, UprightBasePutsTheRootAtItsHeightWithTheWorldAxes) {
+  const ShippedModel& entry = GetParam();
+  const Model model = entry.load();
+  const wbm::VirtualDofs& v = model.virtual_dofs();
+  ASSERT_GE(v.ub_z, 0) << entry.id;
+  const double height = model.dof(v.ub_z).upper;
+  std::mt19937_64 rng(seed_for(entry.id) + 5);
+  Data data(model);
+  for (int c = 0; c < 50; ++c) {
+    const Eigen::VectorXd q = wbm_test::random_configuration(model, rng);
+    const Eigen::VectorXd upright = wbm::upright_base_configuration(model, q);
+    for (int i = 0; i < model.num_dofs(); ++i)
+      if (model.dof(i).role == wbm::DofRole::kJoint) {
+        ASSERT_EQ(upright[i], q[i]) << model.dof(i).name;
+      }
+    model.check_configuration(upright);
+    wbm::forward_kinematics(model, data, upright);
+    const Transform& X_WU = data.X_WB[v.upper_body];
+    ASSERT_LT((X_WU.R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff(), 1e-12) << entry.id;
+    ASSERT_LT((X_WU.p - wbm::Vector3(0.0, 0.0, height)).cwiseAbs().maxCoeff(), 1e-12) << entry.id;
+    ASSERT_LT(data.X_WB[v.heel_body].p.norm(), 1e-12) << entry.id;
+  }
+  if (entry.id == "dual_arm") {  // its URDF's world link, kept as a frame on the base
+    wbm::forward_kinematics(model, data, wbm::upright_base_configuration(model, model.home()));
+    const Transform X_WF = wbm::frame_pose(model, data, model.frame_index("world"));
+    EXPECT_LT((X_WF.p - wbm::Vector3(0.0, 0.0, height)).norm(), 1e-12);
+  }
+  EXPECT_THROW(wbm::upright_base_configuration(model, Eigen::VectorXd::Zero(model.num_dofs() + 1)), wbm::ModelError);
+}
+
 // Forward kinematics, poses, Jacobians and the centre of mass allocate nothing, also when
 // the Jacobian is a block of a larger matrix (as a solver stacks them).
 TEST_P(Kinematics, EvaluationDoesNotAllocate) {

@@ -72,6 +72,8 @@ struct VirtualDofs {
   int ub_x = -1, ub_y = -1, ub_z = -1, ub_roll = -1, ub_pitch = -1, ub_yaw = -1;
   int heel_body = -1;        ///< Body whose frame is the heel frame.
   int upper_body = -1;       ///< Body whose frame is the upper-body (root) frame.
+  /// The nine dof indices in the order heel x, y, yaw, upper body x, y, z, roll, pitch, yaw.
+  std::array<int, 9> all() const { return {heel_x, heel_y, heel_yaw, ub_x, ub_y, ub_z, ub_roll, ub_pitch, ub_yaw}; }
 };
 
 /// Immutable robot model. Build it with ModelBuilder, the built-in paper model
@@ -174,6 +176,15 @@ std::array<Dof, 9> default_virtual_dofs(double height);
 /// `upper_body_name`). The heel body is named "heel".
 int add_virtual_base(ModelBuilder& builder, double height, const std::string& upper_body_name,
                      const Inertial& heel, const Inertial& upper_body);
+
+/// `q` (nq) with the virtual dofs upright: the heel at the world origin facing along x, the
+/// upper body straight above it at the top of its height range (the root height given to
+/// the URDF import), neither shifted nor tilted; every other entry unchanged. This is the
+/// pose of a robot on a fixed base (e.g. a dual-arm robot on a pedestal), whose nine
+/// virtual dofs are then kept frozen (b_C = 0): its root link stands where the URDF puts
+/// it, lifted by the root height. Values outside a dof's range are clamped into it.
+/// @throws ModelError if q.size() != num_dofs().
+Eigen::VectorXd upright_base_configuration(const Model& model, const Eigen::VectorXd& q);
 
 const char* to_string(JointType type);
 const char* to_string(DofRole role);
