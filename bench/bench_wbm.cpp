@@ -23,8 +23,9 @@
 //
 // Own flags (before Google Benchmark's): --wbm_urdf=FILE --wbm_root=LINK --wbm_legs=A,B
 // --wbm_hands=LEFT,RIGHT [--wbm_head=FRAME] [--wbm_com] [--wbm_posture=DOF,DOF,...]
-// [--wbm_default_limits] [--wbm_drop_legs] [--wbm_root_height=H] [--wbm_id=NAME] register a
-// fixture "<NAME>" (default "custom") on that model; scripts/bench.sh wraps this.
+// [--wbm_default_limits] [--wbm_drop_legs] [--wbm_root_height=H] [--wbm_fixed_base]
+// [--wbm_id=NAME] register a fixture "<NAME>" (default "custom") on that model;
+// scripts/bench.sh wraps this.
 #include <unistd.h>
 
 #include <algorithm>
@@ -74,7 +75,7 @@ bool parse_own_flags(int& argc, char** argv, FixtureSpec& custom, std::string& e
   argv[argc] = nullptr;
   if (flags.empty()) return false;
   static const char* known[] = {"urdf",      "root",        "legs",        "hands", "head", "com", "posture",
-                                "default_limits", "drop_legs", "root_height", "id"};
+                                "default_limits", "drop_legs", "root_height", "fixed_base", "id"};
   for (const auto& flag : flags)
     if (std::none_of(std::begin(known), std::end(known), [&](const char* k) { return flag.first == k; })) {
       error = "unknown flag --wbm_" + flag.first;
@@ -99,6 +100,7 @@ bool parse_own_flags(int& argc, char** argv, FixtureSpec& custom, std::string& e
   custom = wbm_bench::custom_fixture(id, flags["urdf"], options, hands[0], hands[1], flags["head"]);
   custom.com = flags.count("com") > 0;
   custom.joint_task = split(flags["posture"], ',');
+  custom.fixed_base = flags.count("fixed_base") > 0;
   if (custom.com || !custom.joint_task.empty())
     custom.description = flags["urdf"] + ": hands position + grasp axis" + (flags["head"].empty() ? "" : ", head view axis") +
                          (custom.com ? ", centre of mass (heel)" : "") +

@@ -210,6 +210,9 @@ class Fixture {
   FixtureSpec spec;
   // wbm
   std::unique_ptr<wbm::Model> model;
+  /// Where every controller and solver starts: the home pose, with a fixed base upright
+  /// (wbm::upright_base_configuration).
+  VectorXd start;
   std::unique_ptr<wbm::Controller> controller;
   wbm::Command command;
   std::vector<Motion> motions;
@@ -339,11 +342,15 @@ Fixture::Fixture(const FixtureSpec& s) : spec(s) {
     model = std::make_unique<wbm::Model>(wbm::load_urdf(spec.urdf, spec.options));
     xml = read_text(spec.urdf);
   }
+  start = spec.fixed_base ? wbm::upright_base_configuration(*model, model->home()) : model->home();
   wbm::UrdfExportOptions whole;
   whole.virtual_dofs = true;
   build_wbm();
   build_kdl(kdl, wbm::export_urdf(*model, whole), true);
   build_kdl(kdl_urdf, xml, false);
+  if (!spec.urdf.empty() && !spec.fixed_base && kdl_urdf.tree.getRootSegment()->first == "world")
+    note("NOTE: " + spec.id + ": the URDF's root link is \"world\" (the convention for a robot bolted to the "
+         "ground); the benchmark freezes only the heel: with --fixed-base all nine virtual dofs stay frozen");
   build_chain();
   check_kinematics_agree(kdl);
   check_kinematics_agree(kdl_urdf);
@@ -373,7 +380,7 @@ bool Fixture::build_out_of_reach() {
   // for a massless model), with the fixture's small motion on top; the other elements
   // move as in the fixture.
   wbm::Data data(m);
-  wbm::forward_kinematics(m, data, m.home());
+  wbm::forward_kinematics(m, data, start);
   const Vector3 centre = m.total_mass() > 0.0 ? wbm::center_of_mass(m, data) : Vector3::Zero();
   reach_motions = motions;
   for (Motion& motion : reach_motions) {
@@ -416,7 +423,7 @@ std::unique_ptr<wbm::Controller> Fixture::make_controller() const {
   // work in every timed cycle instead of only near the limits.
   c->set_criterion(std::make_unique<wbm::CubicJointLimitCriterion>(m, 0.0));
   add_elements([&](std::unique_ptr<wbm::TaskElement> e) { c->add_task(std::move(e)); });
-  c->reset(m.home());
+  c->reset(start);
   return c;
 }
 
@@ -427,6 +434,9 @@ void Fixture::build_wbm() {
   const wbm::VirtualDofs& v = m.virtual_dofs();
   for (int heel : {v.heel_x, v.heel_y, v.heel_yaw})
     if (heel >= 0) command.free_dofs[heel] = false;  // standing: heel frozen
+  if (spec.fixed_base)
+    for (int dof : {v.ub_x, v.ub_y, v.ub_z, v.ub_roll, v.ub_pitch, v.ub_yaw})
+      if (dof >= 0) command.free_dofs[dof] = false;
 
   const wbm::TaskStack& stack = controller->tasks();
   for (int i = 0; i < stack.num_elements(); ++i) {
@@ -486,8 +496,9 @@ void Fixture::build_kdl(KdlTree& k, const std::string& xml, bool whole_tree) {
     k.upper(i) = std::numeric_limits<double>::infinity();
   }
   // Joint-space weights. Whole tree: as wbm's W^-1 = diag(work_range^2) (sec. IV.C), i.e.
-  // KDL's Wq = diag(work_range), and 0 for the frozen heel dofs (wdls then moves them
-  // exactly zero, as wbm's b_C does). URDF tree: identity (KDL's default; it has no heel).
+  // KDL's Wq = diag(work_range), and 0 for the frozen dofs (the heel; with a fixed base all
+  // nine virtual dofs): wdls then moves them exactly zero, as wbm's b_C does. URDF tree:
+  // identity (KDL's default; it has no virtual dofs).
   Eigen::MatrixXd Wq = Eigen::MatrixXd::Identity(nj, nj);
   for (int i = 0; i < model->num_dofs(); ++i) {
     const wbm::Dof& dof = model->dof(i);
@@ -538,7 +549,7 @@ void Fixture::build_kdl(KdlTree& k, const std::string& xml, bool whole_tree) {
     k.jacobians.emplace_back(nj);
   }
   for (Endpoint& e : k.endpoints) e.twist = &k.twists.at(e.name);
-  k.q = k.to_kdl(model->home());
+  k.q = k.to_kdl(start);
   k.qdot.resize(nj);
 }
 
@@ -577,7 +588,7 @@ void Fixture::build_chain() {
     cupper(j) = dof >= 0 ? model->dof(dof).upper : M_PI;
     opt(j) = 0.5 * (clower(j) + cupper(j));
     weights(j) = 1.0;
-    cq(j) = dof >= 0 ? model->home()[dof] : 0.0;
+    cq(j) = dof >= 0 ? start[dof] : 0.0;
     ++j;
   }
   chain_fk = std::make_unique<KDL::ChainFkSolverPos_recursive>(chain);
@@ -620,12 +631,11 @@ void Fixture::check_kinematics_agree(KdlTree& kt) {
 }
 
 VectorXd Fixture::goal_configuration() const {
-  // A reachable goal: home moved by up to 10 % of each range (heel dofs kept).
+  // A reachable goal: the start moved by up to 10 % of each range (frozen dofs kept).
   std::mt19937_64 rng(7);
-  VectorXd q = model->home();
-  const wbm::VirtualDofs& v = model->virtual_dofs();
+  VectorXd q = start;
   for (int i = 0; i < q.size(); ++i) {
-    if (i == v.heel_x || i == v.heel_y || i == v.heel_yaw) continue;
+    if (!command.free_dofs[i]) continue;
     const wbm::Dof& d = model->dof(i);
     const double range = d.continuous ? 2.0 * M_PI : d.upper - d.lower;
     q[i] += std::uniform_real_distribution<double>(-0.1, 0.1)(rng) * range;
@@ -735,9 +745,14 @@ void Fixture::check_wbm() {
          fmt("%.0f %%", 100.0 * damped / cycles) + ", a dof frozen at its limit in " + fmt("%.0f %%", 100.0 * frozen / cycles) +
          " of the moving cycles): the hands follow their targets within " + fmt("%.2g m", tracking) +
          ", and the timed cycles include these slower paths");
+  // Frozen dofs (b_C = 0) moved exactly zero through the convergence and the moving run.
+  for (int i = 0; i < model->num_dofs(); ++i)
+    if (!command.free_dofs[i] && c.q()[i] != start[i])
+      throw std::runtime_error(spec.id + ": wbm moved the frozen dof " + model->dof(i).name);
   record_states();
-  note(spec.id + ": wbm " + std::to_string(model->num_dofs()) + " dofs (heel frozen: " +
-       std::to_string(model->num_dofs() - 3) + " free), " + std::to_string(controller->tasks().num_rows()) +
+  note(spec.id + ": wbm " + std::to_string(model->num_dofs()) + " dofs (" +
+       (spec.fixed_base ? "fixed base, the nine virtual dofs" : "heel") + " frozen: " +
+       std::to_string(command.free_dofs.count()) + " free), " + std::to_string(controller->tasks().num_rows()) +
        " rows; KDL whole tree " + std::to_string(kdl.tree.getNrOfJoints()) + " joints, URDF tree " +
        std::to_string(kdl_urdf.tree.getNrOfJoints()) + " joints, wdls " + std::to_string(6 * kdl.endpoints.size()) +
        " rows (" + std::to_string(kdl.endpoints.size()) + " endpoints x 6), arm chain " + chain_root + " -> " +
@@ -802,13 +817,13 @@ void Fixture::check_kdl(KdlTree& k) {
   if (!(worst_position < 2e-3 && worst_angle < 2e-2))
     throw std::runtime_error(spec.id + ": KDL wdls (" + k.what + ") did not converge");
   for (Endpoint& e : k.endpoints) start_motion(e);
-  const KDL::JntArray start = k.q;
+  const KDL::JntArray before = k.q;
   for (int c = 0; c < 1000; ++c) {
     k.next_targets();
     k.cycle(kDt);
   }
   double moved = 0.0;
-  for (unsigned i = 0; i < k.q.rows(); ++i) moved += (k.q(i) - start(i)) * (k.q(i) - start(i));
+  for (unsigned i = 0; i < k.q.rows(); ++i) moved += (k.q(i) - before(i)) * (k.q(i) - before(i));
   if (!(std::sqrt(moved) > 1e-3) || !k.q.data.allFinite())
     throw std::runtime_error(spec.id + ": KDL wdls (" + k.what + ") does not move");
 }

@@ -27,6 +27,9 @@ struct FixtureSpec {
   bool head_axis = false;                              ///< AxisTask (view axis), 2 rows.
   bool com = false;                                    ///< CenterOfMassTask relative to "heel", 3 rows.
   std::vector<std::string> joint_task;                 ///< JointTask (posture) dofs, 1 row each.
+  /// Freeze all nine virtual dofs (heel and upper body), not only the heel: a robot on a
+  /// fixed base, e.g. a dual-arm robot on a pedestal (its base never moves).
+  bool fixed_base = false;
 
   int rows() const;
 };

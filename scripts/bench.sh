@@ -9,11 +9,14 @@
 #                                         URDF (below): on your robot
 #   scripts/bench.sh ROBOT.urdf --hands LEFT,RIGHT [--head FRAME] [--root LINK] [--legs A,B]
 #                    [--com] [--posture DOF,DOF,...]
-#                    [--default-limits] [--drop-legs] [--root-height H] [--short]
+#                    [--default-limits] [--drop-legs] [--root-height H] [--fixed-base] [--short]
 #                                         your robot: both hands position + grasp axis and the
 #                                         head's view axis (12 rows; 10 without --head), the
 #                                         centre of mass (3 rows) and joint rows if asked, with
-#                                         KDL's wdls and arm-chain solvers on the same URDF
+#                                         KDL's wdls and arm-chain solvers on the same URDF;
+#                                         --fixed-base freezes all nine virtual dofs, not only
+#                                         the heel (a robot whose base never moves, e.g. a
+#                                         dual-arm robot on a pedestal)
 #   ... -- ARGS                           extra Google Benchmark flags, e.g.
 #                                         -- --benchmark_repetitions=5 --benchmark_filter=paper_r12
 #
@@ -47,6 +50,7 @@ while [[ $# -gt 0 ]]; do
     --root-height) own+=("--wbm_root_height=$2"); shift ;;
     --default-limits) own+=("--wbm_default_limits") ;;
     --drop-legs) own+=("--wbm_drop_legs") ;;
+    --fixed-base) own+=("--wbm_fixed_base") ;;
     --) shift; extra+=("$@"); break ;;
     -*) echo "bench.sh: unknown option $1" >&2; usage 2 ;;
     *)
@@ -76,7 +80,7 @@ if [[ -n "$urdf" ]]; then
   fi
   exec "$bin" "--wbm_urdf=$urdf" "${own[@]}" --wbm_id=custom --benchmark_filter='^custom/' "${args[@]}" "${extra[@]}"
 fi
-if [[ ${#own[@]} -gt 0 ]]; then echo "bench.sh: --root/--legs/--hands/--head/--com/--posture need a URDF file" >&2; exit 2; fi
+if [[ ${#own[@]} -gt 0 ]]; then echo "bench.sh: --root/--legs/--hands/--head/--com/--posture/--fixed-base/... need a URDF file" >&2; exit 2; fi
 
 if [[ "$mode" == "instructions" ]]; then
   exec python3 bench/count_instructions.py "$bin" paper_r12 g1_r20 romeo_r12 -- "${extra[@]}"
