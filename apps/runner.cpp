@@ -156,7 +156,7 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
   }
   if (s.criterion == "squared") c.set_criterion(std::make_unique<JointCenterCriterion>(model));
   else c.set_criterion(std::make_unique<CubicJointLimitCriterion>(model, s.criterion_band));
-  Eigen::VectorXd q0 = model.home();
+  Eigen::VectorXd q0 = s.fixed_base ? upright_base_configuration(model, model.home()) : model.home();
   for (const auto& entry : s.initial)
     q0[bound(s, s.initial_line, "initial", [&] { return model.dof_index(entry.first); })] = entry.second;
   c.reset(q0);
@@ -167,6 +167,9 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
     cmd.task_active.segment(stack.row_offset(i), stack.element(i).dim()).setConstant(s.tasks[i].active);
   for (const std::string& d : s.frozen)
     cmd.free_dofs[bound(s, s.frozen_line, "frozen", [&] { return model.dof_index(d); })] = false;
+  if (s.fixed_base)
+    for (const int i : model.virtual_dofs().all())
+      if (i >= 0) cmd.free_dofs[i] = false;
 
   // Resolve every name of the timeline before running, so errors come before any output.
   struct Resolved {
@@ -198,8 +201,11 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
       for (int row : resolve_rows(s, c, sel)) r.off.push_back(row);
     for (const std::string& d : ev.freeze)
       r.freeze.push_back(bound(s, ev.line, "freeze", [&] { return model.dof_index(d); }));
-    for (const std::string& d : ev.release)
+    for (const std::string& d : ev.release) {
       r.release.push_back(bound(s, ev.line, "release", [&] { return model.dof_index(d); }));
+      if (s.fixed_base && model.dof(r.release.back()).role != DofRole::kJoint)
+        fail(s, ev.line, "release: '" + d + "' is a virtual dof, which robot.fixed_base keeps frozen");
+    }
     events.push_back(r);
   }
 

@@ -139,7 +139,7 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
   s.name = r.text(root["name"], "name");
   if (root["description"]) s.description = r.text(root["description"], "description");
   if (const YAML::Node robot = root["robot"]) {
-    r.only(robot, "robot", {"builtin", "urdf", "root", "legs", "drop_legs", "root_height", "default_limits"});
+    r.only(robot, "robot", {"builtin", "urdf", "root", "legs", "drop_legs", "root_height", "default_limits", "fixed_base"});
     s.robot_line = r.line(robot);
     if (robot["builtin"] && r.text(robot["builtin"], "robot.builtin") != "paper")
       r.fail(robot["builtin"], "robot.builtin", "expected 'paper' (the only built-in model)");
@@ -152,7 +152,14 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
     if (robot["drop_legs"] && r.boolean(robot["drop_legs"], "robot.drop_legs")) s.urdf_options.leg_mode = LegMode::kDrop;
     if (robot["root_height"]) s.urdf_options.root_height = r.positive(robot["root_height"], "robot.root_height");
     if (robot["default_limits"]) s.urdf_options.default_limits = r.boolean(robot["default_limits"], "robot.default_limits");
+    if (robot["fixed_base"]) s.fixed_base = r.boolean(robot["fixed_base"], "robot.fixed_base");
   }
+  // A fixed base keeps the nine virtual dofs frozen; balance shifts the upper body and
+  // walking moves the heel, both through those dofs.
+  auto no_fixed_base = [&](const YAML::Node& node, const std::string& field, const char* what) {
+    if (s.fixed_base)
+      r.fail(node, field, std::string(what) + " moves the virtual dofs, which robot.fixed_base keeps frozen");
+  };
   if (root["dt"]) s.dt = r.positive(root["dt"], "dt");
   if (root["duration"]) s.duration = r.positive(root["duration"], "duration");
   // The run keeps every cycle in memory (about 1 KB each on the paper model).
@@ -201,6 +208,7 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
     r.only(balance, "balance", {"enabled", "compensate", "gain", "margin"});
     s.balance.configured = true;
     if (balance["enabled"]) s.balance.enabled = r.boolean(balance["enabled"], "balance.enabled");
+    if (s.balance.enabled) no_fixed_base(balance["enabled"], "balance.enabled", "balance");
     if (balance["compensate"]) s.balance.compensate = r.boolean(balance["compensate"], "balance.compensate");
     if (balance["gain"]) s.balance.gain = r.positive(balance["gain"], "balance.gain");
     if (balance["margin"]) s.balance.margin = r.number(balance["margin"], "balance.margin");
@@ -225,6 +233,7 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
                                 "max_step_length", "max_step_width", "min_step_width", "max_step_turn", "step_duration",
                                 "converged_speed", "converge_time", "feet_tolerance", "max_steps", "max_walks"});
     if (walking["enabled"]) s.walking.enabled = r.boolean(walking["enabled"], "walking.enabled");
+    if (s.walking.enabled) no_fixed_base(walking["enabled"], "walking.enabled", "walking");
     if (walking["trigger_on_joint_limit"]) w.trigger_on_joint_limit = r.boolean(walking["trigger_on_joint_limit"], "walking.trigger_on_joint_limit");
     const std::vector<std::pair<const char*, double*>> numbers = {
         {"cost_threshold", &w.cost_threshold}, {"stall_time", &w.stall_time}, {"error_tolerance", &w.error_tolerance},
@@ -297,6 +306,7 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
       if (e["freeze"]) ev.freeze = r.strings(e["freeze"], field + ".freeze");
       if (e["release"]) ev.release = r.strings(e["release"], field + ".release");
       if (e["balance"]) ev.balance = r.boolean(e["balance"], field + ".balance") ? 1 : 0;
+      if (ev.balance == 1) no_fixed_base(e["balance"], field + ".balance", "balance");
       s.events.push_back(ev);
     }
     std::stable_sort(s.events.begin(), s.events.end(), [](const ScenarioEvent& a, const ScenarioEvent& b) { return a.time < b.time; });

@@ -78,6 +78,9 @@ struct Scenario {
   std::string source;           ///< the file, for messages
   std::string urdf;             ///< empty: built-in paper model
   UrdfImportOptions urdf_options;
+  /// robot.fixed_base: the nine virtual dofs start upright (upright_base_configuration)
+  /// and stay frozen; balance, walking and releasing one of them are errors.
+  bool fixed_base = false;
   int robot_line = 0;           ///< for messages of the URDF import
   double dt = 0.001;
   double duration = 1.0;

@@ -263,6 +263,36 @@ TEST(Scenarios, EveryShippedScenarioRunsAndWritesItsOutputs) {
   EXPECT_GE(count, 10);
 }
 
+// A robot on a fixed base (robot.fixed_base): the nine virtual dofs stay exactly upright
+// (the root link at its height, not shifted, not tilted) while the arms and the torso lift
+// take a box from the sides, lift it and push it.
+TEST(FixedBase, DualArmTakesLiftsAndPushesABoxWithItsBaseUprightAndFrozen) {
+  const auto run = run_scenario(shipped("dual_arm_fixed_base"));
+  const Model& m = *run->model;
+  const Eigen::VectorXd upright = upright_base_configuration(m, m.home());
+  const int lift = m.dof_index("torso_lift");
+  double lift_travel = 0.0;
+  for (int k = 0; k < run->num_cycles(); ++k) {
+    for (const int i : m.virtual_dofs().all()) ASSERT_EQ(run->q[k][i], upright[i]) << m.dof(i).name << " at t = " << run->time[k];
+    for (int i = 0; i < m.num_dofs(); ++i) {
+      ASSERT_GE(run->q[k][i], m.dof(i).lower) << m.dof(i).name;
+      ASSERT_LE(run->q[k][i], m.dof(i).upper) << m.dof(i).name;
+    }
+    lift_travel = std::max(lift_travel, std::abs(run->q[k][lift] - run->q[0][lift]));
+  }
+  EXPECT_GT(lift_travel, 0.05) << "the torso lift takes no share of the motion";
+  const int last = run->num_cycles() - 1;
+  for (const char* tool : {"l_tool", "r_tool"})
+    EXPECT_LT((run->actual_of(tool, last) - run->commanded_of(tool, last)).norm(), 1e-3) << tool;
+  for (const char* axis : {"l_grasp", "r_grasp"})
+    EXPECT_LT(deg(std::acos(std::min(1.0, run->actual_of(axis, last).dot(run->commanded_of(axis, last).normalized())))), 0.1)
+        << axis;
+  // Lifted 0.3 m and pushed 0.1 m from where the box was taken (0.45 m ahead, 1.45 m up;
+  // relative targets add to the value at their time, which lags the target a little).
+  EXPECT_NEAR(run->actual_of("l_tool", last).z(), 1.45 + 0.3, 0.02);
+  EXPECT_NEAR(run->actual_of("l_tool", last).x(), 0.45 + 0.1, 0.02);
+}
+
 struct BadScenario {
   const char* yaml;
   const char* message;
@@ -299,6 +329,16 @@ TEST(Scenarios, BadFilesNameTheLineAndField) {
        "bad.yaml:2: record_every: expected a whole number of cycles >= 1"},
       {"name: x\nrecord_every: 1e12\ntasks: [{name: a, type: position, frame: f}]\n",
        "bad.yaml:2: record_every: expected a whole number of cycles >= 1"},
+      // A fixed base keeps the virtual dofs frozen: balance and walking cannot move them.
+      {"name: x\nrobot: {fixed_base: true}\nbalance: {enabled: true}\ntasks: [{name: a, type: position, frame: f}]\n",
+       "bad.yaml:3: balance.enabled: balance moves the virtual dofs, which robot.fixed_base keeps frozen"},
+      {"name: x\nrobot: {fixed_base: true}\nwalking:\n  enabled: true\ntasks: [{name: a, type: position, frame: f}]\n",
+       "bad.yaml:4: walking.enabled: walking moves the virtual dofs, which robot.fixed_base keeps frozen"},
+      {"name: x\nrobot: {fixed_base: true}\ntasks: [{name: a, type: position, frame: f}]\ntimeline:\n  - t: 0.5\n"
+       "    balance: true\n",
+       "bad.yaml:6: timeline[0].balance: balance moves the virtual dofs, which robot.fixed_base keeps frozen"},
+      {"name: x\nrobot: {fixed_base: yes please}\ntasks: [{name: a, type: position, frame: f}]\n",
+       "bad.yaml:2: robot.fixed_base: expected true or false"},
   };
   for (const BadScenario& c : cases) {
     try {
@@ -335,6 +375,9 @@ TEST(Scenarios, UnknownNamesInTheTimelineAreReportedBeforeRunning) {
        "bad.yaml:2: robot: ./no_such.urdf: cannot open the file"},
       {"name: x\ntasks: [{name: a, type: position, frame: l_hand_ref}]\ntimeline:\n  - t: 0.5\n    release: [nope]\n",
        "bad.yaml:4: release: model 'paper_asimo_like' has no dof named 'nope'"},
+      {"name: x\nrobot: {fixed_base: true}\ntasks: [{name: a, type: position, frame: l_hand_ref}]\ntimeline:\n"
+       "  - t: 0.5\n    release: [l_elbow, upper_body_pitch]\n",
+       "bad.yaml:5: release: 'upper_body_pitch' is a virtual dof, which robot.fixed_base keeps frozen"},
   };
   for (const BadScenario& c : cases) {
     // check_only looks every name up as the full run does (the CLI checks all files first).
