@@ -435,7 +435,7 @@ void Fixture::build_wbm() {
   for (int heel : {v.heel_x, v.heel_y, v.heel_yaw})
     if (heel >= 0) command.free_dofs[heel] = false;  // standing: heel frozen
   if (spec.fixed_base)
-    for (int dof : {v.ub_x, v.ub_y, v.ub_z, v.ub_roll, v.ub_pitch, v.ub_yaw})
+    for (const int dof : v.all())
       if (dof >= 0) command.free_dofs[dof] = false;
 
   const wbm::TaskStack& stack = controller->tasks();

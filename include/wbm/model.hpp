@@ -181,8 +181,8 @@ int add_virtual_base(ModelBuilder& builder, double height, const std::string& up
 /// upper body straight above it at the top of its height range (the root height given to
 /// the URDF import), neither shifted nor tilted; every other entry unchanged. This is the
 /// pose of a robot on a fixed base (e.g. a dual-arm robot on a pedestal), whose nine
-/// virtual dofs are then kept frozen (b_C = 0): its root link stands where the URDF puts
-/// it, lifted by the root height. Values outside a dof's range are clamped into it.
+/// virtual dofs are then kept frozen (b_C = 0): its root link's origin at (0, 0, root
+/// height) [m] with the world's axes. Values outside a dof's range are clamped into it.
 /// @throws ModelError if q.size() != num_dofs().
 Eigen::VectorXd upright_base_configuration(const Model& model, const Eigen::VectorXd& q);
 
