@@ -90,6 +90,10 @@ bool parse_own_flags(int& argc, char** argv, FixtureSpec& custom, std::string& e
     error = "--wbm_hands=LEFT,RIGHT (two frame names) is required";
     return false;
   }
+  if (hands[0] == hands[1]) {
+    error = "--wbm_hands=" + flags["hands"] + ": two different frames expected (left and right hand)";
+    return false;
+  }
   wbm::UrdfImportOptions options;
   options.root = flags["root"];
   options.legs = split(flags["legs"], ',');

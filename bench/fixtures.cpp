@@ -437,6 +437,16 @@ void Fixture::build_wbm() {
   if (spec.fixed_base)
     for (const int dof : v.all())
       if (dof >= 0) command.free_dofs[dof] = false;
+  // A hand that no free dof moves (e.g. the base link with a fixed base) could not track.
+  for (const std::string& hand : {spec.left_hand, spec.right_hand}) {
+    bool moved = false;
+    for (const int b : m.moving_bodies(m.frame(m.frame_index(hand)).body))
+      moved = moved || command.free_dofs[m.body(b).dof];
+    if (!moved)
+      throw std::runtime_error(spec.id + ": no free dof moves the hand frame '" + hand + "'" +
+                               (spec.fixed_base ? " (--fixed-base freezes the nine virtual dofs)" : "") +
+                               ": pick a frame on an arm");
+  }
 
   const wbm::TaskStack& stack = controller->tasks();
   for (int i = 0; i < stack.num_elements(); ++i) {
