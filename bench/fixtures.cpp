@@ -253,7 +253,7 @@ class Fixture {
 
  private:
   void build_wbm();
-  /// A controller with the fixture's elements and criterion, at home.
+  /// A controller with the fixture's elements and criterion, at `start`.
   std::unique_ptr<wbm::Controller> make_controller() const;
   void build_kdl(KdlTree& k, const std::string& xml, bool whole_tree);
   void build_chain();
@@ -439,26 +439,22 @@ void Fixture::build_wbm() {
   if (spec.fixed_base)
     for (const int dof : v.all())
       if (dof >= 0) command.free_dofs[dof] = false;
-  // A hand that no free dof moves (e.g. the base link with a fixed base) could not track.
-  for (const std::string& hand : {spec.left_hand, spec.right_hand}) {
-    bool moved = false;
-    for (const int b : m.moving_bodies(m.frame(m.frame_index(hand)).body))
-      moved = moved || command.free_dofs[m.body(b).dof];
-    if (!moved)
-      throw std::runtime_error(spec.id + ": no free dof moves the hand frame '" + hand + "'" +
-                               (spec.fixed_base ? " (--fixed-base freezes the nine virtual dofs)" : "") +
+  // Rows of zeros, damped in every cycle, are errors: a hand that no free dof moves (e.g.
+  // the base link with a fixed base), a head whose view axis no free revolute dof turns,
+  // posture rows on frozen dofs.
+  const std::string why = spec.fixed_base ? " (--fixed-base freezes the nine virtual dofs)" : "";
+  auto has_free_dof = [&](const std::string& frame, bool revolute_only) {
+    for (const int b : m.moving_bodies(m.frame(m.frame_index(frame)).body))
+      if (command.free_dofs[m.body(b).dof] && (!revolute_only || m.body(b).joint_type == wbm::JointType::kRevolute))
+        return true;
+    return false;
+  };
+  for (const std::string& hand : {spec.left_hand, spec.right_hand})
+    if (!has_free_dof(hand, false))
+      throw std::runtime_error(spec.id + ": no free dof moves the hand frame '" + hand + "'" + why +
                                ": pick a frame on an arm");
-  }
-  // Likewise a head whose view axis no free revolute dof turns, and posture rows on frozen
-  // dofs: rows of zeros, damped in every cycle.
-  if (spec.head_axis) {
-    bool turned = false;
-    for (const int b : m.moving_bodies(m.frame(m.frame_index(spec.head)).body))
-      turned = turned || (command.free_dofs[m.body(b).dof] && m.body(b).joint_type == wbm::JointType::kRevolute);
-    if (!turned)
-      throw std::runtime_error(spec.id + ": no free revolute dof turns the head frame '" + spec.head + "'" +
-                               (spec.fixed_base ? " (--fixed-base freezes the nine virtual dofs)" : ""));
-  }
+  if (spec.head_axis && !has_free_dof(spec.head, true))
+    throw std::runtime_error(spec.id + ": no free revolute dof turns the head frame '" + spec.head + "'" + why);
   for (const std::string& dof : spec.joint_task)
     if (!command.free_dofs[m.dof_index(dof)])
       throw std::runtime_error(spec.id + ": posture dof '" + dof + "' is frozen in the benchmark (" +

@@ -225,16 +225,9 @@ void compare_whole_tree_with_kdl(const std::string& id, const Model& model) {
   const std::string xml = wbm::export_urdf(model, options);
   KDL::Tree tree;
   ASSERT_TRUE(kdl_parser::treeFromString(xml, tree)) << id << ": kdl_parser rejects the whole-tree export";
-  // The root is "world", or "world_", ... where the model has a body or frame of that name
+  // The root is "world", or "world_" where the model has a frame of that name
   // (models/dual_arm keeps its URDF's world link as a frame on its base).
-  std::string world = "world";
-  auto taken = [&](const std::string& name) {
-    if (model.find_frame(name) >= 0) return true;
-    for (int b = 0; b < model.num_bodies(); ++b)
-      if (model.body(b).name == name) return true;
-    return false;
-  };
-  while (taken(world)) world += "_";
+  const std::string world = model.find_frame("world") >= 0 ? "world_" : "world";
   EXPECT_EQ(GetTreeElementSegment(tree.getRootSegment()->second).getName(), world);
   int mimic_joints = 0;
   for (int b = 0; b < model.num_bodies(); ++b) mimic_joints += model.body(b).dof >= 0;
