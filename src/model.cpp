@@ -1,11 +1,14 @@
 #include "wbm/model.hpp"
 
 #include <algorithm>
+#include <limits>
 #include <cmath>
 #include <sstream>
 #include <unordered_set>
 
 #include "wbm/errors.hpp"
+
+#include "closest_names.hpp"
 
 namespace wbm {
 namespace {
@@ -20,6 +23,14 @@ void check_inertial(const std::string& what, const Inertial& in) {
     throw ModelError(what + ": mass must be finite and >= 0 kg, got " + std::to_string(in.mass));
   if (!in.com.allFinite() || !in.inertia.allFinite())
     throw ModelError(what + ": centre of mass and inertia must be finite");
+}
+
+/// Up to 40 names after `what`, for the errors of a name lookup.
+std::string listed(const char* what, const std::vector<std::string>& names) {
+  std::string text = std::string("; ") + what + " are:";
+  for (std::size_t k = 0; k < names.size() && k < 40; ++k) text += " " + names[k];
+  if (names.size() > 40) text += " ...";
+  return text;
 }
 
 }  // namespace
@@ -72,18 +83,20 @@ int Model::find_frame(const std::string& name) const {
 
 int Model::dof_index(const std::string& name) const {
   const int i = find_dof(name);
-  if (i < 0) throw ModelError("model " + quoted(name_) + " has no dof named " + quoted(name));
-  return i;
+  if (i >= 0) return i;
+  std::vector<std::string> names;
+  for (const Dof& d : dofs_) names.push_back(d.name);
+  throw ModelError("model " + quoted(name_) + " has no dof named " + quoted(name) + internal::did_you_mean(name, names) +
+                   listed("dofs", names));
 }
 
 int Model::frame_index(const std::string& name) const {
   const int i = find_frame(name);
   if (i >= 0) return i;
-  std::ostringstream msg;
-  msg << "model " << quoted(name_) << " has no frame named " << quoted(name) << "; frames are:";
-  for (int k = 0; k < num_frames() && k < 40; ++k) msg << " " << frames_[k].name;
-  if (num_frames() > 40) msg << " ...";
-  throw ModelError(msg.str());
+  std::vector<std::string> names;
+  for (const Frame& f : frames_) names.push_back(f.name);
+  throw ModelError("model " + quoted(name_) + " has no frame named " + quoted(name) + internal::did_you_mean(name, names) +
+                   listed("frames", names));
 }
 
 void Model::check_configuration(const Eigen::VectorXd& q) const {

@@ -12,6 +12,8 @@
 
 #include "wbm/errors.hpp"
 
+#include "closest_names.hpp"
+
 namespace wbm {
 namespace {
 
@@ -63,6 +65,12 @@ class UrdfChecker {
   const std::vector<JointInfo>& joints() const { return joints_; }
   const JointInfo& joint(const std::string& name) const { return joints_[joint_index_.at(name)]; }
   bool has_link(const std::string& name) const { return links_.count(name) > 0; }
+  /// " (did you mean 'x'?)" for a link name the file does not define.
+  std::string closest_links(const std::string& name) const {
+    std::vector<std::string> names;
+    for (const auto& link : links_) names.push_back(link.first);
+    return internal::did_you_mean(name, names);
+  }
   const std::string& root() const { return root_; }
 
  private:
@@ -433,7 +441,8 @@ std::string root_link(const UrdfChecker& checker, const urdf::ModelInterface& ur
                       const std::string& source) {
   if (!options.root.empty()) {
     if (!checker.has_link(options.root))
-      throw ParseError(source + ": root link " + quoted(options.root) + " is not defined in the URDF");
+      throw ParseError(source + ": root link " + quoted(options.root) + " is not defined in the URDF" +
+                       checker.closest_links(options.root));
     return options.root;
   }
   // A massless root link ("world") with a single fixed or floating joint is not a body.
@@ -498,7 +507,8 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
     throw ParseError(source + ": dropping the legs (leg_mode kDrop, --drop-legs) needs the legs: name the first link of "
                               "each (legs, --legs)");
   for (const std::string& leg : options.legs)
-    if (!checker.has_link(leg)) throw ParseError(source + ": leg link " + quoted(leg) + " is not defined in the URDF");
+    if (!checker.has_link(leg))
+      throw ParseError(source + ": leg link " + quoted(leg) + " is not defined in the URDF" + checker.closest_links(leg));
   const std::string root = root_link(checker, *urdf, options, source);
   for (const std::string& leg : options.legs)
     if (leg == root) throw ParseError(source + ": leg link " + quoted(leg) + " is the root link");

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <map>
 #include <memory>
@@ -537,6 +538,35 @@ TEST(PaperModel, MassAndFrames) {
   EXPECT_NEAR(model.total_mass(), 54.0, 0.5);
   for (const char* name : {"l_hand_ref", "r_hand_ref", "head_camera", "heel", "upper_body"})
     EXPECT_GE(model.find_frame(name), 0) << name;
+}
+
+// A misspelt frame or dof name gets the closest names in its error (case ignored, or a name
+// that contains it), and the list of all names; a name like no other gets only the list.
+TEST(PaperModel, UnknownNamesSuggestTheClosest) {
+  const wbm::Model model = wbm::make_paper_model();
+  auto message = [](const std::function<void()>& f) {
+    try {
+      f();
+    } catch (const wbm::ModelError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  const std::string typo = message([&] { model.frame_index("l_hnd_ref"); });
+  EXPECT_NE(typo.find("has no frame named 'l_hnd_ref' (did you mean 'l_hand_ref'?); frames are: heel_x"),
+            std::string::npos)
+      << typo;
+  const std::string upper = message([&] { model.frame_index("R_HAND"); });
+  EXPECT_NE(upper.find("(did you mean 'r_hand'?)"), std::string::npos) << upper;
+  const std::string part = message([&] { model.frame_index("hand"); });
+  EXPECT_NE(part.find("(did you mean 'l_hand' or 'r_hand'?)"), std::string::npos) << part;
+  const std::string dof = message([&] { model.dof_index("l_elbo"); });
+  EXPECT_NE(dof.find("has no dof named 'l_elbo' (did you mean 'l_elbow'?); dofs are: heel_x heel_y heel_yaw"),
+            std::string::npos)
+      << dof;
+  const std::string none = message([&] { model.frame_index("xyz"); });
+  EXPECT_EQ(none.find("did you mean"), std::string::npos) << none;
+  EXPECT_NE(none.find("; frames are:"), std::string::npos) << none;
 }
 
 TEST(PaperModel, GraspAxesForwardAndHandsBelowShouldersAtZeroArms) {

@@ -107,6 +107,29 @@ wbm::UrdfImportOptions options_of(const Case& c) {
 
 class MalformedUrdf : public testing::TestWithParam<Case> {};
 
+// A misspelt root or leg link gets the closest link names of the file.
+TEST(UrdfImportErrors, MisspeltLinkNamesSuggestTheClosest) {
+  struct Misspelt {
+    std::string file, root;
+    std::vector<std::string> legs;
+    std::string expected;
+  };
+  for (const Misspelt& c : {Misspelt{"unknown_root_link.urdf", "Base_", {}, "root link 'Base_' is not defined in the "
+                                                                              "URDF (did you mean 'base'?)"},
+                            Misspelt{"unknown_leg_link.urdf", "", {"leg", "legs"}, "leg link 'legs' is not defined in "
+                                                                                  "the URDF (did you mean 'leg'?)"}}) {
+    wbm::UrdfImportOptions options;
+    options.root = c.root;
+    options.legs = c.legs;
+    try {
+      wbm::load_urdf(malformed_path(c.file), options);
+      ADD_FAILURE() << c.file << " was accepted";
+    } catch (const wbm::ParseError& e) {
+      EXPECT_NE(std::string(e.what()).find(c.expected), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST_P(MalformedUrdf, ThrowsParseErrorNamingFileAndLine) {
   const Case& c = GetParam();
   try {

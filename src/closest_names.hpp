@@ -1,0 +1,15 @@
+#pragma once
+/// @file
+/// Internal (not installed): suggestions for a misspelt name in the errors of name lookups.
+
+#include <string>
+#include <vector>
+
+namespace wbm::internal {
+
+/// " (did you mean 'x'?)" for the names closest to a misspelt one: within an edit distance
+/// (case ignored) of a third of its length, at least 1, or containing it (`left_elbow` ->
+/// `left_elbow_link`); up to three equally close names; empty if none is close.
+std::string did_you_mean(const std::string& name, const std::vector<std::string>& names);
+
+}  // namespace wbm::internal
