@@ -57,6 +57,29 @@ std::vector<std::string> split(const std::string& s, char sep) {
   return out;
 }
 
+/// "; the ends of FILE's tree: a b c" (the frames on bodies without children that three
+/// or more of the robot's own joints move: the ends of the arms, and of the legs unless
+/// locked), or why the URDF does not load; for the error of a missing --hands.
+std::string arm_ends(const std::string& urdf, const wbm::UrdfImportOptions& options) {
+  try {
+    const wbm::Model model = wbm::load_urdf(urdf, options);
+    std::vector<bool> has_child(model.num_bodies(), false);
+    for (int b = 0; b < model.num_bodies(); ++b)
+      if (model.body(b).parent >= 0) has_child[model.body(b).parent] = true;
+    std::string ends;
+    for (const wbm::Frame& f : model.frames()) {
+      if (has_child[f.body]) continue;
+      int joints = 0;
+      for (const int b : model.moving_bodies(f.body))
+        joints += model.body(b).dof >= 0 && model.dof(model.body(b).dof).role == wbm::DofRole::kJoint;
+      if (joints >= 3) ends += " " + f.name;
+    }
+    return ends.empty() ? "" : "; the ends of " + urdf + "'s tree:" + ends;
+  } catch (const std::exception& e) {
+    return "; and the URDF does not load: " + std::string(e.what());
+  }
+}
+
 /// Removes the --wbm_* flags from argv and returns a custom fixture if --wbm_urdf was given.
 bool parse_own_flags(int& argc, char** argv, FixtureSpec& custom, std::string& error) {
   std::map<std::string, std::string> flags;
@@ -85,21 +108,31 @@ bool parse_own_flags(int& argc, char** argv, FixtureSpec& custom, std::string& e
     error = "--wbm_urdf=FILE is required with the other --wbm_ flags";
     return false;
   }
+  wbm::UrdfImportOptions options;
+  options.root = flags["root"];
+  options.legs = split(flags["legs"], ',');
+  options.default_limits = flags.count("default_limits") > 0;
+  if (flags.count("drop_legs")) options.leg_mode = wbm::LegMode::kDrop;
+  if (flags.count("root_height")) {
+    const std::string& text = flags["root_height"];
+    char* end = nullptr;
+    options.root_height = std::strtod(text.c_str(), &end);
+    if (text.empty() || end != text.c_str() + text.size() || !std::isfinite(options.root_height)) {
+      error = "--root-height (--wbm_root_height) '" + text + "': a number of metres expected";
+      return false;
+    }
+  }
   const std::vector<std::string> hands = split(flags["hands"], ',');
   if (hands.size() != 2) {
-    error = "--wbm_hands=LEFT,RIGHT (two frame names) is required";
+    error = "--hands LEFT,RIGHT (--wbm_hands) is required: the two frames whose position and grasp axis are "
+            "commanded, one per arm" +
+            arm_ends(flags["urdf"], options);
     return false;
   }
   if (hands[0] == hands[1]) {
     error = "--wbm_hands=" + flags["hands"] + ": two different frames expected (left and right hand)";
     return false;
   }
-  wbm::UrdfImportOptions options;
-  options.root = flags["root"];
-  options.legs = split(flags["legs"], ',');
-  options.default_limits = flags.count("default_limits") > 0;
-  if (flags.count("drop_legs")) options.leg_mode = wbm::LegMode::kDrop;
-  if (flags.count("root_height")) options.root_height = std::stod(flags["root_height"]);
   const std::string id = flags.count("id") ? flags["id"] : "custom";
   custom = wbm_bench::custom_fixture(id, flags["urdf"], options, hands[0], hands[1], flags["head"]);
   custom.com = flags.count("com") > 0;
@@ -331,7 +364,12 @@ int main(int argc, char** argv) {
   wbm_bench::calibrate_timer();
 
   static std::vector<FixtureSpec> fixtures = wbm_bench::standard_fixtures();
-  if (has_custom) fixtures.push_back(custom);
+  if (has_custom) {
+    // The user's robot is built and checked before anything runs: a bad name or a failed
+    // check is one error (bench_wbm: FAILED: ...), exit 1, no benchmark output.
+    if (!wbm_bench::prepare_fixture(custom).empty()) return 1;
+    fixtures.push_back(custom);
+  }
   for (const FixtureSpec& f : fixtures) {
     const FixtureSpec* p = &f;
     auto reg = [&](const std::string& what, void (*fn)(benchmark::State&, const FixtureSpec*)) {

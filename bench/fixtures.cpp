@@ -29,6 +29,7 @@
 #include "bench_common.hpp"
 #include "shipped_models.hpp"
 #include "wbm/controller.hpp"
+#include "wbm/errors.hpp"
 #include "wbm/kinematics.hpp"
 #include "wbm/paper_model.hpp"
 #include "wbm/tasks/axis_task.hpp"
@@ -252,6 +253,8 @@ class Fixture {
   double t_part = 0.0;
 
  private:
+  /// The frames and dofs the spec names exist (the error names the flag).
+  void check_names() const;
   void build_wbm();
   /// A controller with the fixture's elements and criterion, at `start`.
   std::unique_ptr<wbm::Controller> make_controller() const;
@@ -344,6 +347,7 @@ Fixture::Fixture(const FixtureSpec& s) : spec(s) {
     model = std::make_unique<wbm::Model>(wbm::load_urdf(spec.urdf, spec.options));
     xml = read_text(spec.urdf);
   }
+  check_names();
   start = spec.fixed_base ? wbm::upright_base_configuration(*model, model->home()) : model->home();
   wbm::UrdfExportOptions whole;
   whole.virtual_dofs = true;
@@ -360,6 +364,20 @@ Fixture::Fixture(const FixtureSpec& s) : spec(s) {
   check_kdl(kdl);
   check_kdl(kdl_urdf);
   check_nso();
+}
+
+void Fixture::check_names() const {
+  auto check = [](const char* flag, const std::function<void()>& lookup) {
+    try {
+      lookup();
+    } catch (const wbm::ModelError& e) {
+      throw std::runtime_error(std::string(flag) + ": " + e.what());
+    }
+  };
+  const wbm::Model& m = *model;
+  for (const std::string& hand : {spec.left_hand, spec.right_hand}) check("--hands", [&] { m.frame_index(hand); });
+  if (spec.head_axis) check("--head", [&] { m.frame_index(spec.head); });
+  for (const std::string& dof : spec.joint_task) check("--posture", [&] { m.dof_index(dof); });
 }
 
 void Fixture::add_elements(const std::function<void(std::unique_ptr<wbm::TaskElement>)>& add) const {
@@ -889,28 +907,45 @@ void Fixture::nso_cycle(double dt) {
 
 namespace {
 
-Fixture* get(benchmark::State& state, const FixtureSpec* spec) {
+std::map<std::string, std::unique_ptr<Fixture>>& built_fixtures() {
   static std::map<std::string, std::unique_ptr<Fixture>> built;
+  return built;
+}
+
+std::map<std::string, std::string>& fixture_errors() {
   static std::map<std::string, std::string> errors;
-  if (errors.count(spec->id)) {
-    state.SkipWithError(errors[spec->id].c_str());
+  return errors;
+}
+
+Fixture* get(benchmark::State& state, const FixtureSpec* spec) {
+  const std::string error = prepare_fixture(*spec);
+  if (!error.empty()) {
+    state.SkipWithError(fixture_errors()[spec->id].c_str());
     return nullptr;
   }
-  auto it = built.find(spec->id);
-  if (it != built.end()) return it->second.get();
-  try {
-    note(spec->id + ": " + spec->description);
-    auto f = std::make_unique<Fixture>(*spec);
-    return built.emplace(spec->id, std::move(f)).first->second.get();
-  } catch (const std::exception& e) {
-    errors[spec->id] = e.what();
-    fail(e.what());
-    state.SkipWithError(errors[spec->id].c_str());
-    return nullptr;
-  }
+  return built_fixtures()[spec->id].get();
 }
 
 }  // namespace
+
+std::string prepare_fixture(const FixtureSpec& spec) {
+  std::map<std::string, std::string>& errors = fixture_errors();
+  if (errors.count(spec.id)) return errors[spec.id];
+  std::map<std::string, std::unique_ptr<Fixture>>& built = built_fixtures();
+  if (built.count(spec.id)) return {};
+  try {
+    note(spec.id + ": " + spec.description);
+    built.emplace(spec.id, std::make_unique<Fixture>(spec));
+    return {};
+  } catch (const std::exception& e) {
+    // The user's URDF named in every message (import errors name it already).
+    const std::string what = e.what();
+    const std::string message = spec.urdf.empty() || what.rfind(spec.urdf, 0) == 0 ? what : spec.urdf + ": " + what;
+    errors[spec.id] = message;
+    fail(message);
+    return message;
+  }
+}
 
 void bm_wbm_kinematics(benchmark::State& state, const FixtureSpec* spec) {
   Fixture* f = get(state, spec);

@@ -42,6 +42,10 @@ std::vector<FixtureSpec> standard_fixtures();
 FixtureSpec custom_fixture(const std::string& id, const std::string& urdf, const wbm::UrdfImportOptions& options,
                            const std::string& left_hand, const std::string& right_hand, const std::string& head);
 
+/// Builds and checks the fixture (as its benchmarks do on first use) and keeps it for them.
+/// @return an empty string, or what failed (also recorded as a failure in the notes).
+std::string prepare_fixture(const FixtureSpec& spec);
+
 /// Benchmark bodies; each builds (and checks) the fixture on first use.
 /// (a) forward kinematics + the active rows' Jacobians.
 void bm_wbm_kinematics(benchmark::State& state, const FixtureSpec* spec);

@@ -74,7 +74,8 @@ args=()
 if [[ -n "$urdf" ]]; then
   [[ "$urdf" == /* || -f "$urdf" ]] || urdf="$caller_dir/$urdf"  # relative to where it was called from
   [[ -f "$urdf" ]] || { echo "bench.sh: no such file: $urdf" >&2; exit 2; }
-  printf '%s\n' "${own[@]}" | grep -q -- '--wbm_hands=' || { echo "bench.sh: --hands LEFT,RIGHT is required" >&2; exit 2; }
+  # Without --hands, bench_wbm says so and lists the ends of the robot's arms.
+  printf '%s\n' "${own[@]}" | grep -q -- '--wbm_hands=' || exec "$bin" "--wbm_urdf=$urdf" "${own[@]}"
   if [[ "$mode" == "instructions" ]]; then
     exec python3 bench/count_instructions.py "$bin" custom -- "--wbm_urdf=$urdf" "${own[@]}" --wbm_id=custom "${extra[@]}"
   fi
