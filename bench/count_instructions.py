@@ -88,7 +88,9 @@ def count(binary, fixture, min_time, extra, top):
                    f"--benchmark_min_time={min_time}"] + extra
         run = subprocess.run(command, capture_output=True, text=True)
         if run.returncode != 0 or not os.path.exists(out):
-            fail(f"{fixture}: bench_wbm under valgrind failed (exit {run.returncode}):\n{run.stderr[-2000:]}")
+            # bench_wbm's own messages, without valgrind's banner and summary ("==PID== ...").
+            own = "\n".join(line for line in run.stderr.splitlines() if not re.match(r"==\d+==", line))
+            fail(f"{fixture}: bench_wbm under valgrind failed (exit {run.returncode}):\n{own[-2000:]}")
         cycles, cost = parse_callgrind(out)
     total = sum(cost.values())
     if cycles == 0 or total == 0:
