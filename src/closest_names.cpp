@@ -34,17 +34,28 @@ bool contains_ignoring_case(const std::string& text, const std::string& part) {
 
 std::string did_you_mean(const std::string& name, const std::vector<std::string>& names) {
   if (name.empty()) return {};
+  // The names within the edit distance, the closest; failing those, the names that contain
+  // the typed one (a prefix or part of a name).
   const std::size_t limit = std::max<std::size_t>(1, name.size() / 3);
   std::size_t best = std::numeric_limits<std::size_t>::max();
-  std::vector<std::string> closest;
+  std::vector<std::string> closest, containing;
   for (const std::string& candidate : names) {
     const std::size_t d = edit_distance(name, candidate);
-    if (d > limit && !(name.size() >= 3 && contains_ignoring_case(candidate, name))) continue;
-    if (d < best) {
-      best = d;
-      closest.clear();
+    if (d <= limit) {
+      if (d < best) {
+        best = d;
+        closest.clear();
+      }
+      if (d == best && closest.size() < 3) closest.push_back(candidate);
+    } else if (name.size() >= 3 && contains_ignoring_case(candidate, name)) {
+      containing.push_back(candidate);
     }
-    if (d == best && closest.size() < 3) closest.push_back(candidate);
+  }
+  if (closest.empty()) {  // the shortest first (the least added to what was typed)
+    std::stable_sort(containing.begin(), containing.end(),
+                     [](const std::string& a, const std::string& b) { return a.size() < b.size(); });
+    containing.resize(std::min<std::size_t>(containing.size(), 3));
+    closest = containing;
   }
   if (closest.empty()) return {};
   std::string text = " (did you mean";

@@ -540,8 +540,9 @@ TEST(PaperModel, MassAndFrames) {
     EXPECT_GE(model.find_frame(name), 0) << name;
 }
 
-// A misspelt frame or dof name gets the closest names in its error (case ignored, or a name
-// that contains it), and the list of all names; a name like no other gets only the list.
+// A misspelt frame or dof name gets the closest names in its error (case ignored; failing
+// those, the shortest names that contain it), and the list of all names; a name like no
+// other gets only the list.
 TEST(PaperModel, UnknownNamesSuggestTheClosest) {
   const wbm::Model model = wbm::make_paper_model();
   auto message = [](const std::function<void()>& f) {
@@ -559,7 +560,7 @@ TEST(PaperModel, UnknownNamesSuggestTheClosest) {
   const std::string upper = message([&] { model.frame_index("R_HAND"); });
   EXPECT_NE(upper.find("(did you mean 'r_hand'?)"), std::string::npos) << upper;
   const std::string part = message([&] { model.frame_index("hand"); });
-  EXPECT_NE(part.find("(did you mean 'l_hand' or 'r_hand'?)"), std::string::npos) << part;
+  EXPECT_NE(part.find("(did you mean 'l_hand', 'r_hand' or 'l_hand_ref'?)"), std::string::npos) << part;
   const std::string dof = message([&] { model.dof_index("l_elbo"); });
   EXPECT_NE(dof.find("has no dof named 'l_elbo' (did you mean 'l_elbow'?); dofs are: heel_x heel_y heel_yaw"),
             std::string::npos)
