@@ -349,6 +349,23 @@ void print_tables(const TableReporter& rep, const std::vector<FixtureSpec>& fixt
   }
 }
 
+/// The last lines for the user's robot: what its cycle costs in a real-time loop.
+void print_budget(const TableReporter& rep, const FixtureSpec& f) {
+  Result cycle, reach, kdl;
+  if (!rep.get(f.id + "/wbm/cycle", cycle)) return;
+  const bool has_reach = rep.get(f.id + "/wbm/cycle_out_of_reach", reach);
+  const double worst_p99 = std::max(cycle.p99_us, has_reach ? reach.p99_us : 0.0);
+  std::printf("\nYour robot (%s, %d rows): the wbm cycle takes %.2f us (median), %.2f us (p99)", f.urdf.c_str(),
+              f.rows(), cycle.p50_us, cycle.p99_us);
+  if (has_reach) std::printf("; out of reach (damped, dofs frozen at limits) %.2f / %.2f us", reach.p50_us, reach.p99_us);
+  std::printf(".\n  At 1 kHz the larger p99 (%.2f us) is %.2f %% of the 1 ms period", worst_p99, worst_p99 / 10.0);
+  if (rep.get(f.id + "/kdl_wdls/cycle", kdl))
+    std::printf("; KDL's wdls on the same tree takes %.2f us (%.1fx the wbm median)", kdl.p50_us,
+                kdl.p50_us / cycle.p50_us);
+  std::printf(".\n  On a shared or unpinned machine the p99 values move by tens of percent; pin the run "
+              "(taskset -c 1) and see bench/README.md.\n");
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -413,6 +430,7 @@ int main(int argc, char** argv) {
     for (const std::string& line : wbm_bench::notes()) std::printf("  %s\n", line.c_str());
   }
   print_tables(reporter, fixtures);
+  if (has_custom) print_budget(reporter, custom);
   benchmark::Shutdown();
   return wbm_bench::any_failure() ? 1 : 0;
 }
