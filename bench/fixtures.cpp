@@ -25,6 +25,7 @@
 #include <kdl/treeiksolvervel_wdls.hpp>
 #include <kdl/treejnttojacsolver.hpp>
 #include <kdl_parser/kdl_parser.hpp>
+#include <urdf_parser/urdf_parser.h>
 
 #include "bench_common.hpp"
 #include "shipped_models.hpp"
@@ -54,6 +55,16 @@ constexpr double kKdlGain = 10.0;             // [1/s], wbm's default element ga
 constexpr double kKdlLambda = 0.01;           // wdls damping (lambda = 0 gives NaN on wide Jacobians)
 constexpr int kConfigurations = 64;           // random configurations cycled through in (a)
 constexpr double kOutOfReach = 1.0;           // [m] hand targets beyond the hands (cycle_out_of_reach)
+
+/// The URDF's root link is "world" and every joint from it is fixed: a robot bolted to the
+/// ground (a floating joint from "world" is a free-standing robot).
+bool bolted_to_world(const std::string& xml) {
+  const urdf::ModelInterfaceSharedPtr robot = urdf::parseURDF(xml);
+  if (!robot || !robot->getRoot() || robot->getRoot()->name != "world") return false;
+  for (const urdf::JointSharedPtr& joint : robot->getRoot()->child_joints)
+    if (joint->type != urdf::Joint::FIXED) return false;
+  return true;
+}
 
 std::string read_text(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -354,9 +365,10 @@ Fixture::Fixture(const FixtureSpec& s) : spec(s) {
   build_wbm();
   build_kdl(kdl, wbm::export_urdf(*model, whole), true);
   build_kdl(kdl_urdf, xml, false);
-  if (!spec.urdf.empty() && !spec.fixed_base && kdl_urdf.tree.getRootSegment()->first == "world")
-    note("NOTE: " + spec.id + ": the URDF's root link is \"world\" (the convention for a robot bolted to the "
-         "ground); the benchmark freezes only the heel: with --fixed-base all nine virtual dofs stay frozen");
+  if (!spec.urdf.empty() && !spec.fixed_base && bolted_to_world(xml))
+    note("NOTE: " + spec.id + ": the URDF's root link is \"world\" with fixed joints to the robot (the convention "
+         "for a robot bolted to the ground); the benchmark freezes only the heel: with --fixed-base all nine "
+         "virtual dofs stay frozen");
   build_chain();
   check_kinematics_agree(kdl);
   check_kinematics_agree(kdl_urdf);
