@@ -52,6 +52,10 @@ void bm_wbm_kinematics(benchmark::State& state, const FixtureSpec* spec);
 void bm_kdl_kinematics(benchmark::State& state, const FixtureSpec* spec);
 /// (b) one wbm::Controller::update() with moving targets.
 void bm_wbm_cycle(benchmark::State& state, const FixtureSpec* spec);
+/// (b'') the same with cold caches: before each timed cycle (untimed) 2 MiB of other data
+/// are read and written and 64 KiB of other code run, as a robot's other work between two
+/// control cycles would (L1 and L2 evicted; the shared L3 not).
+void bm_wbm_cycle_cold(benchmark::State& state, const FixtureSpec* spec);
 /// (b') the same with the hand targets 1 m beyond the hands, after 3 s of reaching for them:
 /// arms stretched (the damped path), dofs at their limits (frozen and re-solved).
 void bm_wbm_cycle_out_of_reach(benchmark::State& state, const FixtureSpec* spec);
@@ -62,6 +66,8 @@ void bm_wbm_cycle_out_of_reach(benchmark::State& state, const FixtureSpec* spec)
 /// than 6 joints, which pinv_nso does not support).
 void bm_kdl_wdls_cycle(benchmark::State& state, const FixtureSpec* spec);
 void bm_kdl_wdls_urdf_cycle(benchmark::State& state, const FixtureSpec* spec);
+/// KDL's wdls cycle on wbm's whole tree with cold caches, as bm_wbm_cycle_cold.
+void bm_kdl_wdls_cycle_cold(benchmark::State& state, const FixtureSpec* spec);
 void bm_kdl_arm_cycle(benchmark::State& state, const FixtureSpec* spec);
 
 /// Stages of one controller cycle, timed alone with the library's public functions on
