@@ -135,6 +135,11 @@ bool parse_own_flags(int& argc, char** argv, FixtureSpec& custom, std::string& e
     error = "--wbm_hands=" + flags["hands"] + ": two different frames expected (left and right hand)";
     return false;
   }
+  if (flags["head"] == hands[0] || flags["head"] == hands[1]) {
+    error = "--head " + flags["head"] + ": a frame other than the hands expected (the view axis on a hand frame "
+            "repeats the rows of its grasp axis)";
+    return false;
+  }
   const std::string id = flags.count("id") ? flags["id"] : "custom";
   custom = wbm_bench::custom_fixture(id, flags["urdf"], options, hands[0], hands[1], flags["head"]);
   custom.com = flags.count("com") > 0;

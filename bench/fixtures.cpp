@@ -805,6 +805,10 @@ void Fixture::check_wbm() {
          fmt("%.0f %%", 100.0 * damped / cycles) + ", a dof frozen at its limit in " + fmt("%.0f %%", 100.0 * frozen / cycles) +
          " of the moving cycles): the hands follow their targets within " + fmt("%.2g m", tracking) +
          ", and the timed cycles include these slower paths");
+  else if (mostly_damped)
+    note("NOTE: " + spec.id + ": the task set is singular or near-singular on this robot (damped in " +
+         fmt("%.0f %%", 100.0 * damped / cycles) + " of the moving cycles; the hands still within " +
+         fmt("%.2g m", tracking) + "): the timed cycles take the damped path (a second factorisation)");
   // Frozen dofs (b_C = 0) moved exactly zero through the convergence and the moving run.
   for (int i = 0; i < model->num_dofs(); ++i)
     if (!command.free_dofs[i] && c.q()[i] != start[i])
