@@ -27,7 +27,9 @@
 // --wbm_hands=LEFT,RIGHT [--wbm_head=FRAME] [--wbm_com] [--wbm_posture=DOF,DOF,...]
 // [--wbm_default_limits] [--wbm_drop_legs] [--wbm_root_height=H] [--wbm_fixed_base]
 // [--wbm_id=NAME] register a fixture "<NAME>" (default "custom") on that model;
-// scripts/bench.sh wraps this.
+// --wbm_loop=SECONDS [--wbm_rate=HZ] [--wbm_priority=P] [--wbm_spin] run the periodic
+// real-time loop (periodic_loop.hpp) on that fixture, or on paper_r12, g1_r20 and romeo_r12,
+// instead of the benchmarks. scripts/bench.sh wraps this.
 #include <unistd.h>
 
 #include <algorithm>
@@ -43,7 +45,9 @@
 
 #include "bench_common.hpp"
 #include "fixtures.hpp"
+#include "periodic_loop.hpp"
 #include "scaling.hpp"
+#include "wbm/controller.hpp"
 #include "wbm/trajectory_filter.hpp"
 
 namespace {
@@ -82,8 +86,68 @@ std::string arm_ends(const std::string& urdf, const wbm::UrdfImportOptions& opti
   }
 }
 
-/// Removes the --wbm_* flags from argv and returns a custom fixture if --wbm_urdf was given.
-bool parse_own_flags(int& argc, char** argv, FixtureSpec& custom, std::string& error) {
+/// A number from a flag's text, or an error naming the flag and what was expected.
+bool parse_number(const std::string& flag, const std::string& text, const char* expected, double& value,
+                  std::string& error) {
+  char* end = nullptr;
+  value = std::strtod(text.c_str(), &end);
+  if (text.empty() || end != text.c_str() + text.size() || !std::isfinite(value)) {
+    error = flag + " '" + text + "': " + expected + " expected";
+    return false;
+  }
+  return true;
+}
+
+/// --wbm_loop=SECONDS [--wbm_rate=HZ] [--wbm_priority=P] [--wbm_spin]: the periodic loop
+/// instead of the benchmarks.
+struct LoopRequest {
+  bool requested = false;
+  wbm_bench::PeriodicLoopOptions options;
+};
+
+bool parse_loop_flags(std::map<std::string, std::string>& flags, LoopRequest& loop, std::string& error) {
+  const bool any = flags.count("loop") || flags.count("rate") || flags.count("priority") || flags.count("spin");
+  if (!any) return true;
+  if (!flags.count("loop")) {
+    error = "--rate/--priority/--spin (--wbm_rate, --wbm_priority, --wbm_spin) need --loop SECONDS (--wbm_loop)";
+    return false;
+  }
+  loop.options.spin = flags.count("spin") > 0;
+  if (loop.options.spin) loop.options.fifo_priority = 0;
+  loop.requested = true;
+  double priority = loop.options.fifo_priority;
+  if (!parse_number("--loop (--wbm_loop)", flags["loop"], "a positive number of seconds", loop.options.seconds, error) ||
+      (flags.count("rate") &&
+       !parse_number("--rate (--wbm_rate)", flags["rate"], "a positive number of Hz", loop.options.rate_hz, error)) ||
+      (flags.count("priority") &&
+       !parse_number("--priority (--wbm_priority)", flags["priority"], "a SCHED_FIFO priority 1-99, or 0 for none",
+                     priority, error)))
+    return false;
+  if (!(loop.options.seconds > 0.0) || loop.options.seconds * std::max(loop.options.rate_hz, 1.0) > 1e8) {
+    error = "--loop (--wbm_loop) '" + flags["loop"] + "': a positive number of seconds expected (at most 1e8 periods)";
+    return false;
+  }
+  if (!(loop.options.rate_hz > 0.0 && loop.options.rate_hz <= 1e6)) {
+    error = "--rate (--wbm_rate) '" + flags["rate"] + "': a rate in Hz expected, > 0 and <= 1e6";
+    return false;
+  }
+  if (!(priority >= 0.0 && priority <= 99.0 && priority == std::floor(priority))) {
+    error = "--priority (--wbm_priority) '" + flags["priority"] + "': a SCHED_FIFO priority 1-99, or 0 for none expected";
+    return false;
+  }
+  loop.options.fifo_priority = static_cast<int>(priority);
+  if (loop.options.spin && loop.options.fifo_priority > 0) {
+    error = "--spin with --priority " + flags["priority"] + ": a busy-waiting SCHED_FIFO thread is throttled by the "
+            "kernel (50 ms of every second); busy-waiting runs without SCHED_FIFO";
+    return false;
+  }
+  for (const char* k : {"loop", "rate", "priority", "spin"}) flags.erase(k);
+  return true;
+}
+
+/// Removes the --wbm_* flags from argv; returns a custom fixture if --wbm_urdf was given,
+/// and the periodic loop if asked for.
+bool parse_own_flags(int& argc, char** argv, FixtureSpec& custom, LoopRequest& loop, std::string& error) {
   std::map<std::string, std::string> flags;
   int out = 1;
   for (int i = 1; i < argc; ++i) {
@@ -98,6 +162,7 @@ bool parse_own_flags(int& argc, char** argv, FixtureSpec& custom, std::string& e
   }
   argc = out;
   argv[argc] = nullptr;
+  if (!parse_loop_flags(flags, loop, error)) return false;
   if (flags.empty()) return false;
   static const char* known[] = {"urdf",      "root",        "legs",        "hands", "head", "com", "posture",
                                 "default_limits", "drop_legs", "root_height", "fixed_base", "id"};
@@ -115,15 +180,9 @@ bool parse_own_flags(int& argc, char** argv, FixtureSpec& custom, std::string& e
   options.legs = split(flags["legs"], ',');
   options.default_limits = flags.count("default_limits") > 0;
   if (flags.count("drop_legs")) options.leg_mode = wbm::LegMode::kDrop;
-  if (flags.count("root_height")) {
-    const std::string& text = flags["root_height"];
-    char* end = nullptr;
-    options.root_height = std::strtod(text.c_str(), &end);
-    if (text.empty() || end != text.c_str() + text.size() || !std::isfinite(options.root_height)) {
-      error = "--root-height (--wbm_root_height) '" + text + "': a number of metres expected";
-      return false;
-    }
-  }
+  if (flags.count("root_height") && !parse_number("--root-height (--wbm_root_height)", flags["root_height"],
+                                                   "a number of metres", options.root_height, error))
+    return false;
   const std::vector<std::string> hands = split(flags["hands"], ',');
   if (hands.size() != 2) {
     error = "--hands LEFT,RIGHT (--wbm_hands) is required: the two frames whose position and grasp axis are "
@@ -396,12 +455,84 @@ void print_budget(const TableReporter& rep, const FixtureSpec& f) {
               "(taskset -c 1) and see bench/README.md.\n");
 }
 
+/// The periodic loop on each fixture in turn, wbm's cycle and then KDL's wdls cycle on the
+/// same tree; progress on stderr, a table at the end. Exit 1 if a fixture fails its checks
+/// or a cycle reports invalid input; timing never fails.
+int run_loops(const std::vector<FixtureSpec>& fixtures, const wbm_bench::PeriodicLoopOptions& options) {
+  struct Row {
+    std::string id, solver;
+    int rows = 0;
+    wbm_bench::PeriodicLoopResult r;
+  };
+  std::vector<Row> done;
+  std::string scheduling;
+  for (const FixtureSpec& f : fixtures) {
+    if (!wbm_bench::prepare_fixture(f).empty()) return 1;
+    for (const auto& [solver, name] : {std::pair{wbm_bench::LoopSolver::kWbm, "wbm"},
+                                       std::pair{wbm_bench::LoopSolver::kKdlWdls, "kdl_wdls"}}) {
+      const wbm_bench::ControlCycle c = wbm_bench::control_cycle(f, solver);
+      std::fprintf(stderr, "%s/%s: %d rows, %d dofs, %.0f Hz for %g s ...\n", f.id.c_str(), name, c.rows, c.dofs,
+                   options.rate_hz, options.seconds);
+      auto progress = [&](double seconds, const wbm_bench::PeriodicLoopResult& so_far) {
+        std::fprintf(stderr, "  %s/%s: %3.0f / %g s, %ld periods, cycle max %.1f us, wake-up max %.1f us, "
+                     "overruns %ld\n", f.id.c_str(), name, seconds, options.seconds, so_far.periods,
+                     so_far.cycle_max, so_far.wake_max, so_far.overruns);
+      };
+      done.push_back({f.id, name, c.rows, wbm_bench::run_periodic_loop(options, c.next_targets, c.update, progress)});
+      scheduling = done.back().r.scheduling;
+    }
+  }
+  if (!wbm_bench::notes().empty()) {
+    std::printf("\nSanity checks and sizes:\n");
+    for (const std::string& line : wbm_bench::notes()) std::printf("  %s\n", line.c_str());
+  }
+  const double period_us = 1e6 / options.rate_hz;
+  std::printf("\nPeriodic loop: %.0f Hz (period %.1f us) for %g s per solver after %g s of warm-up; %s.\n"
+              "Wake-up: from a period's start (clock_nanosleep, absolute, CLOCK_MONOTONIC) to the thread running. "
+              "Cycle: one control cycle alone (wbm: Controller::update; kdl_wdls: endpoint FK, twists, "
+              "TreeIkSolverVel_wdls, integration, on the same tree). Busy: wake-up + cycle, the part of a period "
+              "used. Overrun: a cycle that ended after the next period's start. Ratio: KDL's cycle median / wbm's.\n\n"
+              "| fixture | solver | rows | periods | cycle median / p99 / p99.9 / max [us] | wake-up median / p99 / max "
+              "[us] | busy max | overruns | skipped | ratio |\n|---|---|---|---|---|---|---|---|---|---|\n",
+              options.rate_hz, period_us, options.seconds, options.warmup_seconds, scheduling.c_str());
+  bool failed = false;
+  for (std::size_t i = 0; i < done.size(); ++i) {
+    const Row& d = done[i];
+    const wbm_bench::PeriodicLoopResult& r = d.r;
+    std::string ratio = "";
+    if (d.solver != "wbm" && i > 0 && done[i - 1].id == d.id && done[i - 1].r.cycle_p50 > 0.0) {
+      char buffer[32];
+      std::snprintf(buffer, sizeof buffer, "%.1fx", r.cycle_p50 / done[i - 1].r.cycle_p50);
+      ratio = buffer;
+    }
+    std::printf("| %s | %s | %d | %ld | %.2f / %.2f / %.2f / %.2f | %.1f / %.1f / %.1f | %.1f %% | %ld | %ld | %s |\n",
+                d.id.c_str(), d.solver.c_str(), d.rows, r.periods, r.cycle_p50, r.cycle_p99, r.cycle_p999,
+                r.cycle_max, r.wake_p50, r.wake_p99, r.wake_max, 100.0 * r.busy_max / period_us, r.overruns,
+                r.skipped, ratio.c_str());
+    if ((r.flags & (static_cast<std::uint32_t>(wbm::kInvalidCommand) | wbm::kInvalidInput)) != 0) {
+      std::fprintf(stderr, "bench_wbm: FAILED: %s/%s: a cycle reported invalid input or NaN (status 0x%x)\n",
+                   d.id.c_str(), d.solver.c_str(), r.flags);
+      failed = true;
+    }
+  }
+  std::printf("\n%s The largest wake-up latencies and cycle maxima on a shared VM come from the host and the "
+              "kernel, not from the controller. For a robot: a PREEMPT_RT kernel, an isolated core (isolcpus, "
+              "taskset) and SCHED_FIFO (root or CAP_SYS_NICE).\n",
+              options.spin ? "The core busy-waits between two periods: caches and branch predictors keep more of "
+                             "the cycle's state than when it sleeps."
+                           : "Between two periods the core sleeps: each cycle starts with cold caches and branch "
+                             "predictors (in a VM also after the host has run other work), so its median here lies "
+                             "above the benchmarks' back-to-back one.");
+  return failed ? 1 : 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   FixtureSpec custom;
+  LoopRequest loop;
   std::string error;
-  const bool has_custom = parse_own_flags(argc, argv, custom, error);
+  const bool has_custom = parse_own_flags(argc, argv, custom, loop, error);
   if (!error.empty()) {
     std::fprintf(stderr, "bench_wbm: %s\n", error.c_str());
     return 2;
@@ -417,6 +548,13 @@ int main(int argc, char** argv) {
   wbm_bench::calibrate_timer();
 
   static std::vector<FixtureSpec> fixtures = wbm_bench::standard_fixtures();
+  if (loop.requested) {
+    std::vector<FixtureSpec> looped;
+    if (has_custom) looped.push_back(custom);
+    for (const FixtureSpec& f : fixtures)
+      if (!has_custom && (f.id == "paper_r12" || f.id == "g1_r20" || f.id == "romeo_r12")) looped.push_back(f);
+    return run_loops(looped, loop.options);
+  }
   if (has_custom) {
     // The user's robot is built and checked before anything runs: a bad name or a failed
     // check is one error (bench_wbm: FAILED: ...), exit 1, no benchmark output.

@@ -191,8 +191,8 @@ struct KdlTree {
     wdls->CartToJnt(q, twists, qdot);
     for (unsigned i = 0; i < q.rows(); ++i) q(i) = std::clamp(q(i) + qdot(i) * dt, lower(i), upper(i));
   }
-  void next_targets() {
-    t += kDt;
+  void next_targets(double dt = kDt) {
+    t += dt;
     for (Endpoint& e : endpoints) e.move(t);
   }
 };
@@ -204,8 +204,8 @@ class Fixture {
   explicit Fixture(const FixtureSpec& s);
 
   void nso_cycle(double dt);
-  void next_wbm_targets() {
-    t_wbm += kDt;
+  void next_wbm_targets(double dt = kDt) {
+    t_wbm += dt;
     for (const Motion& m : motions) m.write(t_wbm, command.targets.segment(m.t0, m.n));
   }
   void next_reach_targets() {
@@ -1135,6 +1135,28 @@ void bm_wbm_cycle(benchmark::State& state, const FixtureSpec* spec) {
   Fixture* f = get(state, spec);
   if (f == nullptr) return;
   time_cycles(state, *f, *f->controller, f->command, [f] { f->next_wbm_targets(); });
+}
+
+ControlCycle control_cycle(const FixtureSpec& spec, LoopSolver solver) {
+  if (!prepare_fixture(spec).empty()) throw std::logic_error("control_cycle: fixture " + spec.id + " failed");
+  Fixture* f = built_fixtures()[spec.id].get();
+  ControlCycle c;
+  if (solver == LoopSolver::kWbm) {
+    c.next_targets = [f](double dt) { f->next_wbm_targets(dt); };
+    c.update = [f](double dt) { return f->controller->update(f->command, dt).flags; };
+    c.rows = f->controller->tasks().num_rows();
+    c.dofs = f->model->num_dofs();
+  } else {
+    KdlTree* k = &f->kdl;
+    c.next_targets = [k](double dt) { k->next_targets(dt); };
+    c.update = [k](double dt) {
+      k->cycle(dt);
+      return static_cast<std::uint32_t>(k->q.data.allFinite() ? wbm::kSolverOk : wbm::kInvalidInput);
+    };
+    c.rows = 6 * static_cast<int>(k->endpoints.size());
+    c.dofs = static_cast<int>(k->tree.getNrOfJoints());
+  }
+  return c;
 }
 
 void bm_wbm_cycle_cold(benchmark::State& state, const FixtureSpec* spec) {

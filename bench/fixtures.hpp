@@ -4,6 +4,8 @@
 /// KDL, built on first use and checked (the controller converges and moves, KDL agrees on
 /// the kinematics and its solvers converge) before anything is timed.
 
+#include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -45,6 +47,22 @@ FixtureSpec custom_fixture(const std::string& id, const std::string& urdf, const
 /// Builds and checks the fixture (as its benchmarks do on first use) and keeps it for them.
 /// @return an empty string, or what failed (also recorded as a failure in the notes).
 std::string prepare_fixture(const FixtureSpec& spec);
+
+/// The fixture's control cycle as a robot's loop runs it (for the periodic loop):
+/// `next_targets(dt)` moves the targets on by dt [s] as the cycle benchmarks do, `update(dt)`
+/// runs one cycle and returns status flags (wbm's; for KDL kInvalidInput if its joint
+/// values are no longer finite). Both work on the fixture's state, which the cycle
+/// benchmarks use too.
+struct ControlCycle {
+  std::function<void(double)> next_targets;
+  std::function<std::uint32_t(double)> update;
+  int rows = 0, dofs = 0;
+};
+/// Which cycle: wbm::Controller::update, or KDL's TreeIkSolverVel_wdls cycle on the same
+/// tree (as <id>/kdl_wdls/cycle).
+enum class LoopSolver { kWbm, kKdlWdls };
+/// @pre prepare_fixture(spec) returned no error. @throws std::logic_error otherwise.
+ControlCycle control_cycle(const FixtureSpec& spec, LoopSolver solver);
 
 /// Benchmark bodies; each builds (and checks) the fixture on first use.
 /// (a) forward kinematics + the active rows' Jacobians.

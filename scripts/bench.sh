@@ -17,6 +17,13 @@
 #                                         --fixed-base freezes all nine virtual dofs, not only
 #                                         the heel (a robot whose base never moves, e.g. a
 #                                         dual-arm robot on a pedestal)
+#   scripts/bench.sh --loop SECONDS [--rate HZ] [--priority P | --spin] [ROBOT.urdf --hands ...]
+#                                         the controller in a periodic real-time loop (default
+#                                         1000 Hz, SCHED_FIFO 80 with memory locked if allowed;
+#                                         --priority 0: as started; --spin: busy-wait instead of
+#                                         sleeping), then KDL's wdls cycle in the same loop: cycle
+#                                         and wake-up latency median/p99/p99.9/max, overruns; on
+#                                         the paper model, G1 and Romeo, or on your robot
 #   ... -- ARGS                           extra Google Benchmark flags, e.g.
 #                                         -- --benchmark_repetitions=5 --benchmark_filter=paper_r12
 #
@@ -30,6 +37,7 @@ urdf=""
 mode="fixtures"
 short=0
 own=()
+loop=()
 extra=()
 
 usage() { awk 'NR > 1 && /^#/ { sub(/^# ?/, ""); print; next } NR > 1 { exit }' "$0"; exit "${1:-0}"; }
@@ -51,6 +59,10 @@ while [[ $# -gt 0 ]]; do
     --default-limits) own+=("--wbm_default_limits") ;;
     --drop-legs) own+=("--wbm_drop_legs") ;;
     --fixed-base) own+=("--wbm_fixed_base") ;;
+    --loop) loop+=("--wbm_loop=$2"); shift ;;
+    --rate) loop+=("--wbm_rate=$2"); shift ;;
+    --priority) loop+=("--wbm_priority=$2"); shift ;;
+    --spin) loop+=("--wbm_spin") ;;
     --) shift; extra+=("$@"); break ;;
     -*) echo "bench.sh: unknown option $1" >&2; usage 2 ;;
     *)
@@ -59,6 +71,8 @@ while [[ $# -gt 0 ]]; do
   esac
   shift
 done
+
+if [[ ${#loop[@]} -gt 0 && "$mode" != "fixtures" ]]; then echo "bench.sh: --loop runs on its own (not with --$mode)" >&2; exit 2; fi
 
 bin="$build_dir/bench/bench_wbm"
 if [[ ! -x "$bin" ]]; then
@@ -76,6 +90,9 @@ if [[ -n "$urdf" ]]; then
   [[ -f "$urdf" ]] || { echo "bench.sh: no such file: $urdf" >&2; exit 2; }
   # Without --hands, bench_wbm says so and lists the ends of the robot's arms.
   printf '%s\n' "${own[@]}" | grep -q -- '--wbm_hands=' || exec "$bin" "--wbm_urdf=$urdf" "${own[@]}"
+  if [[ ${#loop[@]} -gt 0 ]]; then
+    exec "$bin" "--wbm_urdf=$urdf" "${own[@]}" --wbm_id=custom "${loop[@]}" "${extra[@]}"
+  fi
   if [[ "$mode" == "instructions" ]]; then
     exec python3 bench/count_instructions.py "$bin" custom -- "--wbm_urdf=$urdf" "${own[@]}" --wbm_id=custom "${extra[@]}"
   fi
@@ -83,7 +100,9 @@ if [[ -n "$urdf" ]]; then
 fi
 if [[ ${#own[@]} -gt 0 ]]; then echo "bench.sh: --root/--legs/--hands/--head/--com/--posture/--fixed-base/... need a URDF file" >&2; exit 2; fi
 
-if [[ "$mode" == "instructions" ]]; then
+if [[ ${#loop[@]} -gt 0 ]]; then
+  exec "$bin" "${loop[@]}" "${extra[@]}"
+elif [[ "$mode" == "instructions" ]]; then
   exec python3 bench/count_instructions.py "$bin" paper_r12 g1_r20 romeo_r12 -- "${extra[@]}"
 elif [[ "$mode" == "scaling" ]]; then
   json="$(mktemp --suffix=.json)"

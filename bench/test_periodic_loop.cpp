@@ -1,0 +1,115 @@
+// The periodic loop's bookkeeping (bench/periodic_loop.hpp) with stand-in cycles of known
+// length: period count, dt, overruns, skipped periods, status flags, argument errors.
+// Bounds on times are loose on purpose (a shared machine): each test fails only if the
+// bookkeeping itself is wrong.
+#include "periodic_loop.hpp"
+
+#include <time.h>
+
+#include <cmath>
+#include <cstdint>
+#include <stdexcept>
+
+#include <gtest/gtest.h>
+
+namespace {
+
+using wbm_bench::PeriodicLoopOptions;
+using wbm_bench::PeriodicLoopResult;
+using wbm_bench::run_periodic_loop;
+
+void busy_for(double seconds) {
+  timespec start{}, now{};
+  clock_gettime(CLOCK_MONOTONIC, &start);
+  do {
+    clock_gettime(CLOCK_MONOTONIC, &now);
+  } while (static_cast<double>(now.tv_sec - start.tv_sec) + 1e-9 * static_cast<double>(now.tv_nsec - start.tv_nsec) <
+           seconds);
+}
+
+PeriodicLoopOptions options(double seconds, double rate_hz, bool spin = false) {
+  PeriodicLoopOptions o;
+  o.seconds = seconds;
+  o.rate_hz = rate_hz;
+  o.warmup_seconds = 0.0;
+  o.fifo_priority = 0;
+  o.spin = spin;
+  return o;
+}
+
+TEST(PeriodicLoop, RunsOneCycleAndOneBeforePerPeriodWithThePeriodAsDt) {
+  for (const bool spin : {false, true}) {
+    long before = 0, cycles = 0;
+    double dt_seen = 0.0;
+    PeriodicLoopOptions o = options(0.2, 500.0, spin);
+    o.warmup_seconds = 0.02;  // 10 periods, run but not recorded
+    const PeriodicLoopResult r = run_periodic_loop(
+        o, [&](double) { ++before; },
+        [&](double dt) {
+          ++cycles;
+          dt_seen = dt;
+          return std::uint32_t{0};
+        });
+    EXPECT_EQ(r.periods, 100) << "spin " << spin;
+    EXPECT_EQ(cycles, 110);
+    EXPECT_EQ(before, cycles);
+    EXPECT_DOUBLE_EQ(dt_seen, 0.002);
+    EXPECT_LE(r.cycle_p50, r.cycle_p99);
+    EXPECT_LE(r.cycle_p99, r.cycle_p999);
+    EXPECT_LE(r.cycle_p999, r.cycle_max);
+    EXPECT_LE(r.wake_p50, r.wake_p99);
+    EXPECT_LE(r.wake_p99, r.wake_max);
+    EXPECT_GE(r.busy_max, r.cycle_max);
+    EXPECT_NE(r.scheduling.find(spin ? "busy-waiting" : "sleeping"), std::string::npos) << r.scheduling;
+  }
+}
+
+TEST(PeriodicLoop, ACycleLongerThanThePeriodIsAnOverrunAndLaterStartsAreSkipped) {
+  // 2 ms period; every fifth cycle takes 5 ms: it overruns, and the starts it passed by a
+  // whole period (at least one) are skipped, not run late.
+  long k = 0;
+  const PeriodicLoopResult r = run_periodic_loop(options(0.05, 500.0), [](double) {}, [&](double) {
+    if (k++ % 5 == 4) busy_for(0.005);
+    return std::uint32_t{0};
+  });
+  EXPECT_EQ(r.periods, 25);
+  EXPECT_GE(r.overruns, 5);
+  EXPECT_GE(r.skipped, 5);
+  EXPECT_GE(r.cycle_max, 5000.0);
+  EXPECT_GT(r.busy_max, 2000.0);  // more than the 2 ms period [us]
+}
+
+TEST(PeriodicLoop, CyclesWithinThePeriodDoNotOverrun) {
+  // 20 ms periods and 1 ms cycles: only a stall of the whole machine for 19 ms could overrun.
+  const PeriodicLoopResult r = run_periodic_loop(options(0.2, 50.0), [](double) {}, [](double) {
+    busy_for(0.001);
+    return std::uint32_t{0};
+  });
+  EXPECT_EQ(r.periods, 10);
+  EXPECT_EQ(r.overruns, 0);
+  EXPECT_EQ(r.skipped, 0);
+  EXPECT_GE(r.cycle_p50, 1000.0);
+}
+
+TEST(PeriodicLoop, StatusFlagsOfAllCyclesAreCombined) {
+  long k = 0;
+  const PeriodicLoopResult r = run_periodic_loop(options(0.01, 1000.0), [](double) {}, [&](double) {
+    ++k;
+    return k == 3 ? std::uint32_t{1u << 16} : k == 7 ? std::uint32_t{1u << 2} : std::uint32_t{0};
+  });
+  EXPECT_EQ(r.flags, (1u << 16) | (1u << 2));
+}
+
+TEST(PeriodicLoop, BadArgumentsThrow) {
+  const auto nothing = [](double) {};
+  const auto cycle = [](double) { return std::uint32_t{0}; };
+  for (const double seconds : {0.0, -1.0, std::nan(""), 1e300})
+    EXPECT_THROW(run_periodic_loop(options(seconds, 1000.0), nothing, cycle), std::invalid_argument) << seconds;
+  for (const double rate : {0.0, -5.0, std::nan(""), 2e6})
+    EXPECT_THROW(run_periodic_loop(options(1.0, rate), nothing, cycle), std::invalid_argument) << rate;
+  PeriodicLoopOptions spinning_fifo = options(1.0, 1000.0, true);
+  spinning_fifo.fifo_priority = 10;
+  EXPECT_THROW(run_periodic_loop(spinning_fifo, nothing, cycle), std::invalid_argument);
+}
+
+}  // namespace
