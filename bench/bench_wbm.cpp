@@ -468,8 +468,8 @@ int run_loops(const std::vector<FixtureSpec>& fixtures, const wbm_bench::Periodi
   std::string scheduling;
   for (const FixtureSpec& f : fixtures) {
     if (!wbm_bench::prepare_fixture(f).empty()) return 1;
-    for (const auto& [solver, name] : {std::pair{wbm_bench::LoopSolver::kWbm, "wbm"},
-                                       std::pair{wbm_bench::LoopSolver::kKdlWdls, "kdl_wdls"}}) {
+    for (const wbm_bench::LoopSolver solver : {wbm_bench::LoopSolver::kWbm, wbm_bench::LoopSolver::kKdlWdls}) {
+      const char* name = solver == wbm_bench::LoopSolver::kWbm ? "wbm" : "kdl_wdls";
       const wbm_bench::ControlCycle c = wbm_bench::control_cycle(f, solver);
       std::fprintf(stderr, "%s/%s: %d rows, %d dofs, %.0f Hz for %g s ...\n", f.id.c_str(), name, c.rows, c.dofs,
                    options.rate_hz, options.seconds);
