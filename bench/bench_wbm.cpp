@@ -33,6 +33,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -98,20 +99,24 @@ bool parse_number(const std::string& flag, const std::string& text, const char* 
   return true;
 }
 
-/// --wbm_loop=SECONDS [--wbm_rate=HZ] [--wbm_priority=P] [--wbm_spin]: the periodic loop
-/// instead of the benchmarks.
+/// --wbm_loop=SECONDS [--wbm_rate=HZ] [--wbm_priority=P] [--wbm_spin] [--wbm_loop_csv=FILE]:
+/// the periodic loop instead of the benchmarks.
 struct LoopRequest {
   bool requested = false;
   wbm_bench::PeriodicLoopOptions options;
+  std::string csv;  ///< --wbm_loop_csv=FILE: every period's wake-up latency and cycle time
 };
 
 bool parse_loop_flags(std::map<std::string, std::string>& flags, LoopRequest& loop, std::string& error) {
-  const bool any = flags.count("loop") || flags.count("rate") || flags.count("priority") || flags.count("spin");
+  const bool any = flags.count("loop") || flags.count("rate") || flags.count("priority") || flags.count("spin") ||
+                   flags.count("loop_csv");
   if (!any) return true;
   if (!flags.count("loop")) {
-    error = "--rate/--priority/--spin (--wbm_rate, --wbm_priority, --wbm_spin) need --loop SECONDS (--wbm_loop)";
+    error = "--rate/--priority/--spin/--plot (--wbm_rate, --wbm_priority, --wbm_spin, --wbm_loop_csv) need --loop "
+            "SECONDS (--wbm_loop)";
     return false;
   }
+  loop.csv = flags["loop_csv"];
   loop.options.spin = flags.count("spin") > 0;
   if (loop.options.spin) loop.options.fifo_priority = 0;
   loop.requested = true;
@@ -141,7 +146,7 @@ bool parse_loop_flags(std::map<std::string, std::string>& flags, LoopRequest& lo
             "kernel (50 ms of every second); busy-waiting runs without SCHED_FIFO";
     return false;
   }
-  for (const char* k : {"loop", "rate", "priority", "spin"}) flags.erase(k);
+  for (const char* k : {"loop", "rate", "priority", "spin", "loop_csv"}) flags.erase(k);
   return true;
 }
 
@@ -458,16 +463,30 @@ void print_budget(const TableReporter& rep, const FixtureSpec& f) {
 /// The periodic loop on each fixture in turn, wbm's cycle and then KDL's wdls cycle on the
 /// same tree; progress on stderr, a table at the end. Exit 1 if a fixture fails its checks
 /// or a cycle reports invalid input; timing never fails.
-int run_loops(const std::vector<FixtureSpec>& fixtures, const wbm_bench::PeriodicLoopOptions& options) {
+int run_loops(const std::vector<FixtureSpec>& fixtures, const LoopRequest& request) {
+  const wbm_bench::PeriodicLoopOptions& options = request.options;
   struct Row {
     std::string id, solver;
     int rows = 0;
     wbm_bench::PeriodicLoopResult r;
   };
+  // The samples go to FILE.tmp, renamed to FILE at the end: a failed or interrupted run
+  // leaves no half-written FILE (an old one stays as it was). Opened first, so that a path
+  // that cannot be written fails before the run, not after it.
+  const std::string csv_tmp = request.csv + ".tmp";
+  std::FILE* csv = nullptr;
+  if (!request.csv.empty() && (csv = std::fopen(csv_tmp.c_str(), "w")) == nullptr) {
+    std::fprintf(stderr, "bench_wbm: --plot/--wbm_loop_csv: cannot write %s: %s\n", csv_tmp.c_str(),
+                 std::strerror(errno));
+    return 1;
+  }
   std::vector<Row> done;
   std::string scheduling;
   for (const FixtureSpec& f : fixtures) {
-    if (!wbm_bench::prepare_fixture(f).empty()) return 1;
+    if (!wbm_bench::prepare_fixture(f).empty()) {
+      if (csv != nullptr) std::fclose(csv), std::remove(csv_tmp.c_str());
+      return 1;
+    }
     for (const wbm_bench::LoopSolver solver : {wbm_bench::LoopSolver::kWbm, wbm_bench::LoopSolver::kKdlWdls}) {
       const char* name = solver == wbm_bench::LoopSolver::kWbm ? "wbm" : "kdl_wdls";
       const wbm_bench::ControlCycle c = wbm_bench::control_cycle(f, solver);
@@ -515,6 +534,20 @@ int run_loops(const std::vector<FixtureSpec>& fixtures, const wbm_bench::Periodi
       failed = true;
     }
   }
+  if (csv != nullptr) {
+    std::fprintf(csv, "fixture,solver,period,period_us,wake_us,cycle_us\n");
+    for (const Row& d : done)
+      for (std::size_t k = 0; k < d.r.cycle_us.size(); ++k)
+        std::fprintf(csv, "%s,%s,%zu,%.3f,%.3f,%.3f\n", d.id.c_str(), d.solver.c_str(), k, d.r.period_us,
+                     d.r.wake_us[k], d.r.cycle_us[k]);
+    const bool written = std::fclose(csv) == 0;
+    if (!written || std::rename(csv_tmp.c_str(), request.csv.c_str()) != 0) {
+      std::fprintf(stderr, "bench_wbm: --plot/--wbm_loop_csv: cannot write %s: %s\n", request.csv.c_str(),
+                   std::strerror(errno));
+      std::remove(csv_tmp.c_str());
+      failed = true;
+    }
+  }
   std::printf("\n%s The largest wake-up latencies and cycle maxima on a shared VM come from the host and the "
               "kernel, not from the controller. For a robot: a PREEMPT_RT kernel, an isolated core (isolcpus, "
               "taskset) and SCHED_FIFO (root or CAP_SYS_NICE).\n",
@@ -553,7 +586,7 @@ int main(int argc, char** argv) {
     if (has_custom) looped.push_back(custom);
     for (const FixtureSpec& f : fixtures)
       if (!has_custom && (f.id == "paper_r12" || f.id == "g1_r20" || f.id == "romeo_r12")) looped.push_back(f);
-    return run_loops(looped, loop.options);
+    return run_loops(looped, loop);
   }
   if (has_custom) {
     // The user's robot is built and checked before anything runs: a bad name or a failed

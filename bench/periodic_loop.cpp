@@ -36,12 +36,12 @@ void wait_until(std::int64_t ns, bool spin) {
   }
 }
 
-/// The p-quantile (0 <= p <= 1) of v [ns] in us; reorders v.
-double quantile_us(std::vector<float>& v, double p) {
+/// The p-quantile (0 <= p <= 1) of v; reorders v.
+double quantile(std::vector<float>& v, double p) {
   if (v.empty()) return 0.0;
   const std::size_t k = std::min(v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size())));
   std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
-  return 1e-3 * v[k];
+  return v[k];
 }
 
 /// SCHED_FIFO and locked memory for the calling thread while it exists; the previous
@@ -96,9 +96,9 @@ PeriodicLoopResult run_periodic_loop(const PeriodicLoopOptions& options, const s
   const long per_second = std::max(1L, std::lround(options.rate_hz));
 
   PeriodicLoopResult r;
-  std::vector<float> cycle_ns, wake_ns;  // reserved before the loop: no allocation inside it
-  cycle_ns.reserve(static_cast<std::size_t>(recorded));
-  wake_ns.reserve(static_cast<std::size_t>(recorded));
+  r.period_us = 1e-3 * static_cast<double>(period);
+  r.cycle_us.reserve(static_cast<std::size_t>(recorded));  // before the loop: no allocation inside it
+  r.wake_us.reserve(static_cast<std::size_t>(recorded));
   const RealtimeScheduling scheduling(options.fifo_priority);
   r.scheduling = scheduling.description() + (options.spin ? ", busy-waiting" : ", sleeping between periods");
 
@@ -112,11 +112,13 @@ PeriodicLoopResult run_periodic_loop(const PeriodicLoopOptions& options, const s
     const std::int64_t t1 = now_ns();
     std::int64_t next = start + period;
     if (k >= warmup) {
-      const double c = static_cast<double>(t1 - t0), w = static_cast<double>(woke - start);
-      cycle_ns.push_back(static_cast<float>(c));
-      wake_ns.push_back(static_cast<float>(w));
-      r.cycle_max = std::max(r.cycle_max, 1e-3 * c);
-      r.wake_max = std::max(r.wake_max, 1e-3 * w);
+      // The maxima of the stored (float) samples, so that they bound the percentiles exactly.
+      const float c = static_cast<float>(1e-3 * static_cast<double>(t1 - t0));
+      const float w = static_cast<float>(1e-3 * static_cast<double>(woke - start));
+      r.cycle_us.push_back(c);
+      r.wake_us.push_back(w);
+      r.cycle_max = std::max(r.cycle_max, static_cast<double>(c));
+      r.wake_max = std::max(r.wake_max, static_cast<double>(w));
       r.busy_max = std::max(r.busy_max, 1e-3 * static_cast<double>(t1 - start));
       r.overruns += t1 > next;
       ++r.periods;
@@ -132,11 +134,13 @@ PeriodicLoopResult run_periodic_loop(const PeriodicLoopOptions& options, const s
     if (progress && k >= warmup && (k - warmup + 1) % per_second == 0 && k + 1 < warmup + recorded)
       progress(static_cast<double>(k - warmup + 1) / options.rate_hz, r);
   }
-  r.cycle_p50 = quantile_us(cycle_ns, 0.5);
-  r.cycle_p99 = quantile_us(cycle_ns, 0.99);
-  r.cycle_p999 = quantile_us(cycle_ns, 0.999);
-  r.wake_p50 = quantile_us(wake_ns, 0.5);
-  r.wake_p99 = quantile_us(wake_ns, 0.99);
+  std::vector<float> sorted = r.cycle_us;  // the samples stay in period order
+  r.cycle_p50 = quantile(sorted, 0.5);
+  r.cycle_p99 = quantile(sorted, 0.99);
+  r.cycle_p999 = quantile(sorted, 0.999);
+  sorted = r.wake_us;
+  r.wake_p50 = quantile(sorted, 0.5);
+  r.wake_p99 = quantile(sorted, 0.99);
   return r;
 }
 

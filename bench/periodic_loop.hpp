@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <vector>
 
 namespace wbm_bench {
 
@@ -36,6 +37,8 @@ struct PeriodicLoopResult {
   double busy_max = 0;         ///< Largest wake-up latency + cycle: the part of a period used.
   std::uint32_t flags = 0;     ///< Status flags of all cycles, or-ed.
   std::string scheduling;      ///< E.g. "SCHED_FIFO 80, memory locked" or why not.
+  std::vector<float> cycle_us, wake_us;  ///< Per recorded period, in order [us].
+  double period_us = 0;        ///< The period used (1e6 / rate, rounded to whole ns) [us].
 };
 
 /// Called about once per second of the run (outside the timed part of a period).

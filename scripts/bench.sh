@@ -17,13 +17,15 @@
 #                                         --fixed-base freezes all nine virtual dofs, not only
 #                                         the heel (a robot whose base never moves, e.g. a
 #                                         dual-arm robot on a pedestal)
-#   scripts/bench.sh --loop SECONDS [--rate HZ] [--priority P | --spin] [ROBOT.urdf --hands ...]
+#   scripts/bench.sh --loop SECONDS [--rate HZ] [--priority P | --spin] [--plot DIR] [ROBOT.urdf --hands ...]
 #                                         the controller in a periodic real-time loop (default
 #                                         1000 Hz, SCHED_FIFO 80 with memory locked if allowed;
 #                                         --priority 0: as started; --spin: busy-wait instead of
 #                                         sleeping), then KDL's wdls cycle in the same loop: cycle
 #                                         and wake-up latency median/p99/p99.9/max, overruns; on
-#                                         the paper model, G1 and Romeo, or on your robot
+#                                         the paper model, G1 and Romeo, or on your robot;
+#                                         --plot DIR writes DIR/loop.csv (every period) and
+#                                         DIR/loop.svg (histograms)
 #   ... -- ARGS                           extra Google Benchmark flags, e.g.
 #                                         -- --benchmark_repetitions=5 --benchmark_filter=paper_r12
 #
@@ -38,6 +40,7 @@ mode="fixtures"
 short=0
 own=()
 loop=()
+plot_dir=""
 extra=()
 
 usage() { awk 'NR > 1 && /^#/ { sub(/^# ?/, ""); print; next } NR > 1 { exit }' "$0"; exit "${1:-0}"; }
@@ -63,6 +66,7 @@ while [[ $# -gt 0 ]]; do
     --rate) loop+=("--wbm_rate=$2"); shift ;;
     --priority) loop+=("--wbm_priority=$2"); shift ;;
     --spin) loop+=("--wbm_spin") ;;
+    --plot) plot_dir="$2"; shift ;;
     --) shift; extra+=("$@"); break ;;
     -*) echo "bench.sh: unknown option $1" >&2; usage 2 ;;
     *)
@@ -73,6 +77,20 @@ while [[ $# -gt 0 ]]; do
 done
 
 if [[ ${#loop[@]} -gt 0 && "$mode" != "fixtures" ]]; then echo "bench.sh: --loop runs on its own (not with --$mode)" >&2; exit 2; fi
+if [[ -n "$plot_dir" && ${#loop[@]} -eq 0 ]]; then echo "bench.sh: --plot DIR goes with --loop SECONDS" >&2; exit 2; fi
+[[ -z "$plot_dir" || "$plot_dir" == /* ]] || plot_dir="$caller_dir/$plot_dir"
+
+# The periodic loop (bench_wbm's arguments), and with --plot its samples and histograms.
+run_loop() {
+  if [[ -n "$plot_dir" ]]; then
+    mkdir -p "$plot_dir"
+    "$bin" "$@" "${loop[@]}" "--wbm_loop_csv=$plot_dir/loop.csv" "${extra[@]}"
+    python3 bench/plot_loop.py "$plot_dir/loop.csv" "$plot_dir/loop.svg"
+  else
+    "$bin" "$@" "${loop[@]}" "${extra[@]}"
+  fi
+  exit 0
+}
 
 bin="$build_dir/bench/bench_wbm"
 if [[ ! -x "$bin" ]]; then
@@ -90,9 +108,7 @@ if [[ -n "$urdf" ]]; then
   [[ -f "$urdf" ]] || { echo "bench.sh: no such file: $urdf" >&2; exit 2; }
   # Without --hands, bench_wbm says so and lists the ends of the robot's arms.
   printf '%s\n' "${own[@]}" | grep -q -- '--wbm_hands=' || exec "$bin" "--wbm_urdf=$urdf" "${own[@]}"
-  if [[ ${#loop[@]} -gt 0 ]]; then
-    exec "$bin" "--wbm_urdf=$urdf" "${own[@]}" --wbm_id=custom "${loop[@]}" "${extra[@]}"
-  fi
+  [[ ${#loop[@]} -eq 0 ]] || run_loop "--wbm_urdf=$urdf" "${own[@]}" --wbm_id=custom
   if [[ "$mode" == "instructions" ]]; then
     exec python3 bench/count_instructions.py "$bin" custom -- "--wbm_urdf=$urdf" "${own[@]}" --wbm_id=custom "${extra[@]}"
   fi
@@ -101,7 +117,7 @@ fi
 if [[ ${#own[@]} -gt 0 ]]; then echo "bench.sh: --root/--legs/--hands/--head/--com/--posture/--fixed-base/... need a URDF file" >&2; exit 2; fi
 
 if [[ ${#loop[@]} -gt 0 ]]; then
-  exec "$bin" "${loop[@]}" "${extra[@]}"
+  run_loop
 elif [[ "$mode" == "instructions" ]]; then
   exec python3 bench/count_instructions.py "$bin" paper_r12 g1_r20 romeo_r12 -- "${extra[@]}"
 elif [[ "$mode" == "scaling" ]]; then
