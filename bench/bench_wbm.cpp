@@ -457,7 +457,8 @@ void print_budget(const TableReporter& rep, const FixtureSpec& f) {
     std::printf("; KDL's wdls on the same tree takes %.2f us (%.1fx the wbm median)", kdl.p50_us,
                 kdl.p50_us / cycle.p50_us);
   std::printf(".\n  On a shared or unpinned machine the p99 values move by tens of percent; pin the run "
-              "(taskset -c 1) and see bench/README.md.\n");
+              "(taskset -c 1) and see bench/README.md. In a real-time loop each cycle starts cold and the "
+              "machine adds its wake-up latency: scripts/bench.sh --loop 10 with the same flags measures both.\n");
 }
 
 /// The periodic loop on each fixture in turn, wbm's cycle and then KDL's wdls cycle on the
@@ -484,7 +485,10 @@ int run_loops(const std::vector<FixtureSpec>& fixtures, const LoopRequest& reque
   std::string scheduling;
   for (const FixtureSpec& f : fixtures) {
     if (!wbm_bench::prepare_fixture(f).empty()) {
-      if (csv != nullptr) std::fclose(csv), std::remove(csv_tmp.c_str());
+      if (csv != nullptr) {
+        std::fclose(csv);
+        std::remove(csv_tmp.c_str());
+      }
       return 1;
     }
     for (const wbm_bench::LoopSolver solver : {wbm_bench::LoopSolver::kWbm, wbm_bench::LoopSolver::kKdlWdls}) {
