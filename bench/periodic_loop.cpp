@@ -102,16 +102,22 @@ PeriodicLoopResult run_periodic_loop(const PeriodicLoopOptions& options, const s
   const RealtimeScheduling scheduling(options.fifo_priority);
   r.scheduling = scheduling.description() + (options.spin ? ", busy-waiting" : ", sleeping between periods");
 
+  // The loop covers `warmup` periods and then `recorded` ones of wall time: where starts are
+  // skipped, fewer cycles are recorded (never more, so the reserved samples suffice).
   std::int64_t start = now_ns() + period;
-  for (long k = 0; k < warmup + recorded; ++k) {
+  const std::int64_t record_from = start + warmup * period;
+  const std::int64_t end = record_from + recorded * period;
+  long reported = 0;  // whole seconds of the recorded part passed on to `progress`
+  while (start < end) {
     wait_until(start, options.spin);
     const std::int64_t woke = now_ns();
     before(dt);
     const std::int64_t t0 = now_ns();
     r.flags |= cycle(dt);
     const std::int64_t t1 = now_ns();
+    const bool recording = start >= record_from;
     std::int64_t next = start + period;
-    if (k >= warmup) {
+    if (recording) {
       // The maxima of the stored (float) samples, so that they bound the percentiles exactly.
       const float c = static_cast<float>(1e-3 * static_cast<double>(t1 - t0));
       const float w = static_cast<float>(1e-3 * static_cast<double>(woke - start));
@@ -127,12 +133,19 @@ PeriodicLoopResult run_periodic_loop(const PeriodicLoopOptions& options, const s
     // with the next one still ahead (as a robot's loop that keeps its phase).
     if (t1 > next + period) {
       const std::int64_t behind = (t1 - next) / period;
-      if (k >= warmup) r.skipped += behind;
+      // Skipped starts next + k period, 0 <= k < behind, that lie in [record_from, end): all
+      // starts are on one grid, so the divisions are exact.
+      const std::int64_t first_k = std::clamp<std::int64_t>((record_from - next) / period, 0, behind);
+      const std::int64_t last_k = std::clamp<std::int64_t>((end - next) / period, 0, behind);
+      r.skipped += std::max<std::int64_t>(0, last_k - first_k);
       next += behind * period;
     }
     start = next;
-    if (progress && k >= warmup && (k - warmup + 1) % per_second == 0 && k + 1 < warmup + recorded)
-      progress(static_cast<double>(k - warmup + 1) / options.rate_hz, r);
+    const long seconds_done = recording ? static_cast<long>((start - record_from) / (per_second * period)) : 0;
+    if (progress && seconds_done > reported && start < end) {
+      reported = seconds_done;
+      progress(static_cast<double>(seconds_done), r);
+    }
   }
   std::vector<float> sorted = r.cycle_us;  // the samples stay in period order
   r.cycle_p50 = quantile(sorted, 0.5);

@@ -29,7 +29,7 @@ struct PeriodicLoopOptions {
 
 /// Times [us]; percentiles over the recorded periods.
 struct PeriodicLoopResult {
-  long periods = 0;            ///< Periods recorded.
+  long periods = 0;            ///< Periods recorded (seconds x rate, less the skipped ones).
   long overruns = 0;           ///< Cycles that ended after the next period's start.
   long skipped = 0;            ///< Periods whose start had passed when the loop woke (not run).
   double cycle_p50 = 0, cycle_p99 = 0, cycle_p999 = 0, cycle_max = 0;  ///< The cycle alone.
