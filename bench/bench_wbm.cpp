@@ -209,6 +209,7 @@ bool parse_own_flags(int& argc, char** argv, FixtureSpec& custom, LoopRequest& l
   custom.com = flags.count("com") > 0;
   custom.joint_task = split(flags["posture"], ',');
   custom.fixed_base = flags.count("fixed_base") > 0;
+  custom.user_robot = true;
   if (custom.com || !custom.joint_task.empty())
     custom.description = flags["urdf"] + ": hands position + grasp axis" + (flags["head"].empty() ? "" : ", head view axis") +
                          (custom.com ? ", centre of mass (heel)" : "") +

@@ -774,13 +774,13 @@ void Fixture::check_wbm() {
   // camera fixed to the torso plus the centre of mass on a robot with few upper-body dofs)
   // trades tracking for bounded joint speeds by design (singularity-robust inverse). On the
   // fixtures, whose tracking guards against regressions, the hands must then stay within
-  // half their motion's amplitude. On your robot ("custom") such a task set, or one that
+  // half their motion's amplitude. On your robot (any --wbm_id) such a task set, or one that
   // runs into joint limits or singularities in at least a fifth of the cycles (a "hand" on
   // the torso; posture rows that hold a lift while the arms start stretched), only has to
   // keep the hands within 2.5 amplitudes (the check is that the cycle runs; how well it
   // tracks is in the warning), and with more rows than free dofs (your --com and --posture
   // rows on top of the hands) no configuration meets them all: the hands only have to move.
-  const bool custom = spec.id == "custom";
+  const bool custom = spec.user_robot;
   const bool mostly_damped = 2 * damped >= cycles;
   const bool often_limited = custom && 5 * limited >= cycles;
   const bool overdetermined_set = custom && 2 * overdetermined >= cycles;

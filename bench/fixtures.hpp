@@ -32,6 +32,9 @@ struct FixtureSpec {
   /// Freeze all nine virtual dofs (heel and upper body), not only the heel: a robot on a
   /// fixed base, e.g. a dual-arm robot on a pedestal (its base never moves).
   bool fixed_base = false;
+  /// A robot given on the command line (--wbm_urdf), whatever its id: its tracking is
+  /// reported, not held to the shipped fixtures' limits (see Fixture::check_wbm).
+  bool user_robot = false;
 
   int rows() const;
 };
