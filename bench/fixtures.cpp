@@ -275,6 +275,14 @@ class Fixture {
   void check_wbm();
   void check_kdl(KdlTree& k);
   void check_nso();
+  /// On a user's robot a peer that stops short of the goal (KDL's velocity solvers know no
+  /// joint limits: a joint clamped at its limit can stall the loop) is reported, not fatal:
+  /// its calls still do the same work per cycle, and wbm's run is what the user asked for.
+  void peer_did_not_converge(const std::string& peer, const std::string& error) const {
+    note("WARNING: " + spec.id + ": " + peer + " stops short of a reachable goal in 4 s (error " + error +
+         "; KDL's velocity solvers do not know joint limits, and the benchmark's loop clamps at them); its times "
+         "are still of the same work per call");
+  }
   void record_states();
   VectorXd goal_configuration() const;
   void add_elements(const std::function<void(std::unique_ptr<wbm::TaskElement>)>& add) const;
@@ -875,11 +883,15 @@ void Fixture::check_kdl(KdlTree& k) {
   for (int i = 0; i < model->num_dofs(); ++i)
     if (!command.free_dofs[i] && k.of_dof[i] >= 0 && k.q(k.of_dof[i]) != home(k.of_dof[i]))
       throw std::runtime_error(spec.id + ": KDL wdls (" + k.what + ") moved the frozen dof " + model->dof(i).name);
-  note(spec.id + ": KDL wdls on the " + k.what + " (" + std::to_string(k.tree.getNrOfJoints()) +
-       " joints), closed loop (gain 10/s, lambda 0.01) converges in 4 s: error " +
-       fmt("%.2g m / %.2g rad", worst_position, worst_angle));
-  if (!(worst_position < 2e-3 && worst_angle < 2e-2))
-    throw std::runtime_error(spec.id + ": KDL wdls (" + k.what + ") did not converge");
+  const std::string error = fmt("%.2g m / %.2g rad", worst_position, worst_angle);
+  const std::string setup = " (" + std::to_string(k.tree.getNrOfJoints()) + " joints), closed loop (gain 10/s, lambda 0.01)";
+  if (worst_position < 2e-3 && worst_angle < 2e-2)
+    note(spec.id + ": KDL wdls on the " + k.what + setup + " converges in 4 s: error " + error);
+  else if (spec.user_robot)
+    peer_did_not_converge("KDL wdls on the " + k.what + setup, error);
+  else
+    throw std::runtime_error(spec.id + ": KDL wdls (" + k.what + ") did not converge in 4 s: error " + error +
+                             " (expected < 0.002 m / 0.02 rad)");
   for (Endpoint& e : k.endpoints) start_motion(e);
   const KDL::JntArray before = k.q;
   for (int c = 0; c < 1000; ++c) {
@@ -902,9 +914,14 @@ void Fixture::check_nso() {
   for (int k = 0; k < 4000; ++k) nso_cycle(kDt);
   chain_fk->JntToCart(cq, chain_end.pose);
   const KDL::Twist d = KDL::diff(chain_end.pose, chain_end.target);
-  note(spec.id + ": KDL " + arm_solver + " arm closed loop converges in 4 s: error " +
-       fmt("%.2g m / %.2g rad", d.vel.Norm(), d.rot.Norm()));
-  if (!(d.vel.Norm() < 2e-3)) throw std::runtime_error(spec.id + ": KDL arm solver did not converge");
+  const std::string error = fmt("%.2g m / %.2g rad", d.vel.Norm(), d.rot.Norm());
+  if (d.vel.Norm() < 2e-3)
+    note(spec.id + ": KDL " + arm_solver + " arm closed loop converges in 4 s: error " + error);
+  else if (spec.user_robot)
+    peer_did_not_converge("KDL " + arm_solver + " on the arm chain", error);
+  else
+    throw std::runtime_error(spec.id + ": KDL arm solver did not converge in 4 s: error " + error +
+                             " (expected < 0.002 m)");
   start_motion(chain_end);
 }
 
