@@ -257,6 +257,7 @@ class Fixture {
   std::vector<VectorXd> states;
   std::vector<Eigen::MatrixXd> state_J;
   std::vector<VectorXd> state_xdot, state_gradient, state_qdot;
+  std::vector<VectorXd> state_qdot_task;  ///< the controller's J# x_dot at the recorded cycles (empty: not compared)
   std::unique_ptr<wbm::CubicJointLimitCriterion> criterion;
   std::unique_ptr<wbm::WholeBodySolver> part_solver;
   std::vector<wbm::TrajectoryFilter> part_filters;
@@ -755,8 +756,21 @@ void Fixture::check_wbm() {
   VectorXd previous = c.values();
   for (int k = 0; k < cycles; ++k) {
     next_wbm_targets();
+    // 64 consecutive cycles (warm starts as in the loop) recorded for the stage benchmarks:
+    // the configuration the cycle starts from and the solver's inputs as the controller built them.
+    const bool record = k >= 1000 && k < 1064;
+    if (record) states.push_back(c.q());
     const wbm::ControllerStatus status = c.update(command, kDt);
     if (!status.ok()) throw std::runtime_error(spec.id + ": controller cycle failed while moving");
+    if (record) {
+      state_J.emplace_back(c.tasks().jacobian());
+      state_xdot.emplace_back(c.tasks().task_velocity());
+      // Cycles that froze a dof at its limit (the stage solves without q, so without the
+      // limit checks) or damped (sigma_min estimated from another warm start) are not compared.
+      state_qdot_task.push_back(status.has(wbm::kDofAtLimitFrozen) || status.has(wbm::kDamped)
+                                    ? VectorXd()
+                                    : VectorXd(c.solver().output().qdot_task));
+    }
     damped += status.has(wbm::kDamped);
     frozen += status.has(wbm::kDofAtLimitFrozen);
     limited += status.has(wbm::kDamped) || status.has(wbm::kDofAtLimitFrozen);
@@ -766,7 +780,6 @@ void Fixture::check_wbm() {
     null_motion += c.solver().output().qdot_null.norm() > 0.0;
     travelled += (c.values().segment(motions[0].t0, 3) - previous.segment(motions[0].t0, 3)).norm();
     previous = c.values();
-    if (k >= 1000 && k < 1064) states.push_back(c.q());  // 64 consecutive cycles (warm starts as in the loop)
     if (k >= 1000)
       for (const Motion& m : motions)
         if (m.kind == Motion::Kind::kPosition)
@@ -833,17 +846,14 @@ void Fixture::check_wbm() {
 }
 
 void Fixture::record_states() {
-  // Inputs of each stage at the recorded states, as the controller sees them.
+  // Inputs of the other stages at the recorded states (the solver's J and task velocity
+  // were recorded from the controller itself: the stack here has the targets of the end of
+  // the run, so its task velocities at these states would be those of a large error).
   const wbm::Model& m = *model;
   criterion = std::make_unique<wbm::CubicJointLimitCriterion>(m, 0.0);
   kin_stack->targets() = controller->filtered_targets();
   kin_stack->target_rates().setZero();
   for (const VectorXd& q : states) {
-    wbm::forward_kinematics(m, *kin_data, q);
-    if (spec.com) wbm::center_of_mass(m, *kin_data);
-    kin_stack->assemble(m, *kin_data);
-    state_J.emplace_back(kin_stack->jacobian());
-    state_xdot.emplace_back(kin_stack->task_velocity());
     VectorXd g(m.num_dofs());
     criterion->gradient(q, g);
     state_gradient.push_back(g);
@@ -852,6 +862,12 @@ void Fixture::record_states() {
   for (std::size_t k = 0; k < states.size(); ++k) {
     part_solver->solve(state_J[k], state_xdot[k], state_gradient[k], command.free_dofs, kDt);
     state_qdot.push_back(part_solver->output().qdot);
+    // The solve stage times the cycle's own problem: its J# x_dot is the controller's (the
+    // null-space part may differ: this solver has no previous cycle for its jerk limit).
+    const VectorXd& expected = state_qdot_task[k];
+    if (expected.size() != 0 && !((part_solver->output().qdot_task - expected).norm() <= 1e-9 * (1.0 + expected.norm())))
+      throw std::logic_error(spec.id + ": the solve stage's inputs at recorded state " + std::to_string(k) +
+                             " do not give the controller's task velocities");
   }
   const wbm::TaskStack& stack = controller->tasks();
   part_targets = command.targets;
