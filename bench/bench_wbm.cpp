@@ -385,7 +385,7 @@ void print_tables(const TableReporter& rep, const std::vector<FixtureSpec>& fixt
                 ratio(rep, k, c).c_str());
   }
   // Stages of the cycle, each timed alone (medians).
-  bool parts_header = false;
+  bool parts_header = false, negative_rest = false;
   for (const FixtureSpec& f : fixtures) {
     Result cycle;
     if (!rep.get(f.id + "/wbm/cycle", cycle)) continue;
@@ -414,7 +414,12 @@ void print_tables(const TableReporter& rep, const std::vector<FixtureSpec>& fixt
     }
     row += " | " + fmt_us(cycle.p50_us - sum) + " (" + fmt_pct((cycle.p50_us - sum) / cycle.p50_us) + ") |";
     std::printf("%s\n", row.c_str());
+    negative_rest |= cycle.p50_us < sum;
   }
+  if (negative_rest)
+    std::printf("A negative rest: the stages alone took longer than the whole cycle, so the run was disturbed "
+                "(other load on the core, an unpinned thread, a busy VM host); run again pinned (taskset -c 1) "
+                "or with -- --benchmark_repetitions=5 (medians over the repetitions).\n");
 
   // Goals (informational; nothing fails on timing).
   struct Goal {
