@@ -192,6 +192,8 @@ bool parse_own_flags(int& argc, char** argv, FixtureSpec& custom, LoopRequest& l
   if (hands.size() != 2) {
     error = "--hands LEFT,RIGHT (--wbm_hands) is required: the two frames whose position and grasp axis are "
             "commanded, one per arm" +
+            (flags["hands"].empty() ? std::string()
+                                    : " (got " + std::to_string(hands.size()) + ": '" + flags["hands"] + "')") +
             arm_ends(flags["urdf"], options);
     return false;
   }
