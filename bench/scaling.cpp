@@ -122,16 +122,30 @@ class ScalingFixture {
     int damped = 0, frozen = 0;
     double tracking = 0.0;
     const int cycles = 500 + static_cast<int>(std::lround(2.0 * M_PI / kOmega / kDt));
+    J.clear();
+    xdot.clear();
+    qdot_task.clear();
     for (int k = 0; k < cycles; ++k) {
       next_targets();
+      // 32 consecutive cycles for the stage benchmarks (their J stay in cache): the
+      // configuration each starts from and the solver's inputs as the controller built them.
+      const bool record = k >= 1000 && k < 1032;
+      if (record) states.push_back(controller->q());
       const wbm::ControllerStatus status = controller->update(command, kDt);
       if (!status.ok()) throw std::runtime_error(sc.name + ": controller cycle failed");
+      if (record) {
+        J.emplace_back(controller->tasks().jacobian());
+        xdot.emplace_back(controller->tasks().task_velocity());
+        // Not compared (empty) where the stage cannot reproduce the cycle: see fixtures.cpp.
+        qdot_task.push_back(status.has(wbm::kDofAtLimitFrozen) || status.has(wbm::kDamped)
+                                ? VectorXd()
+                                : VectorXd(controller->solver().output().qdot_task));
+      }
       damped += status.has(wbm::kDamped);
       frozen += status.has(wbm::kDofAtLimitFrozen);
       if (k >= 500)
         for (int r = 0; r < sc.rows; ++r)  // position elements: row r <-> target entry r
           tracking = std::max(tracking, std::abs(controller->values()[r] - controller->filtered_targets()[r]));
-      if (k >= 1000 && k < 1032) states.push_back(controller->q());  // 32 states: their J stay in cache
     }
     record_stages(elements);
     std::snprintf(line, size,
@@ -142,10 +156,10 @@ class ScalingFixture {
     return tracking < 1e-2 && 2 * damped < cycles;
   }
 
-  /// Inputs of the assemble and solve stages at the recorded states (as in fixtures.cpp).
+  /// Inputs of the assemble and solve stages at the recorded states (as in fixtures.cpp:
+  /// J and the task velocities were recorded from the controller; the stack here serves the
+  /// assemble stage). Throws if the solve stage does not give the controller's J# x_dot.
   void record_stages(int elements) {
-    J.clear();
-    xdot.clear();
     gradient.clear();
     data = std::make_unique<wbm::Data>(model);
     stack = std::make_unique<wbm::TaskStack>(model);
@@ -155,15 +169,18 @@ class ScalingFixture {
     stack->targets() = controller->filtered_targets();
     const wbm::CubicJointLimitCriterion criterion(model, 0.0);
     for (const VectorXd& q : states) {
-      wbm::forward_kinematics(model, *data, q);
-      stack->assemble(model, *data);
-      J.emplace_back(stack->jacobian());
-      xdot.emplace_back(stack->task_velocity());
       VectorXd g(model.num_dofs());
       criterion.gradient(q, g);
       gradient.push_back(g);
     }
     solver = std::make_unique<wbm::WholeBodySolver>(model, stack->num_rows());
+    for (std::size_t k = 0; k < states.size(); ++k) {
+      solver->solve(J[k], xdot[k], gradient[k], command.free_dofs, kDt);
+      const VectorXd& expected = qdot_task[k];
+      if (expected.size() != 0 && !((solver->output().qdot_task - expected).norm() <= 1e-9 * (1.0 + expected.norm())))
+        throw std::logic_error("scaling: the solve stage's inputs at recorded state " + std::to_string(k) +
+                               " do not give the controller's task velocities");
+    }
   }
 
   void next_targets() {
@@ -186,6 +203,7 @@ class ScalingFixture {
   std::unique_ptr<wbm::TaskStack> stack;
   std::vector<Eigen::MatrixXd> J;
   std::vector<VectorXd> xdot, gradient;
+  std::vector<VectorXd> qdot_task;  ///< the controller's J# x_dot at the recorded cycles (empty: not compared)
   std::unique_ptr<wbm::WholeBodySolver> solver;
 };
 
