@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "bench_common.hpp"
+#include "recorded_solves.hpp"
 #include "wbm/controller.hpp"
 #include "wbm/tasks/position_task.hpp"
 
@@ -122,9 +123,7 @@ class ScalingFixture {
     int damped = 0, frozen = 0;
     double tracking = 0.0;
     const int cycles = 500 + static_cast<int>(std::lround(2.0 * M_PI / kOmega / kDt));
-    J.clear();
-    xdot.clear();
-    qdot_task.clear();
+    solves.clear();
     for (int k = 0; k < cycles; ++k) {
       next_targets();
       // 32 consecutive cycles for the stage benchmarks (their J stay in cache): the
@@ -133,14 +132,7 @@ class ScalingFixture {
       if (record) states.push_back(controller->q());
       const wbm::ControllerStatus status = controller->update(command, kDt);
       if (!status.ok()) throw std::runtime_error(sc.name + ": controller cycle failed");
-      if (record) {
-        J.emplace_back(controller->tasks().jacobian());
-        xdot.emplace_back(controller->tasks().task_velocity());
-        // Not compared (empty) where the stage cannot reproduce the cycle: see fixtures.cpp.
-        qdot_task.push_back(status.has(wbm::kDofAtLimitFrozen) || status.has(wbm::kDamped)
-                                ? VectorXd()
-                                : VectorXd(controller->solver().output().qdot_task));
-      }
+      if (record) solves.record(*controller, status);
       damped += status.has(wbm::kDamped);
       frozen += status.has(wbm::kDofAtLimitFrozen);
       if (k >= 500)
@@ -175,11 +167,8 @@ class ScalingFixture {
     }
     solver = std::make_unique<wbm::WholeBodySolver>(model, stack->num_rows());
     for (std::size_t k = 0; k < states.size(); ++k) {
-      solver->solve(J[k], xdot[k], gradient[k], command.free_dofs, kDt);
-      const VectorXd& expected = qdot_task[k];
-      if (expected.size() != 0 && !((solver->output().qdot_task - expected).norm() <= 1e-9 * (1.0 + expected.norm())))
-        throw std::logic_error("scaling: the solve stage's inputs at recorded state " + std::to_string(k) +
-                               " do not give the controller's task velocities");
+      solver->solve(solves.J[k], solves.xdot[k], gradient[k], command.free_dofs, kDt);
+      solves.check(k, *solver, "scaling");
     }
   }
 
@@ -201,9 +190,8 @@ class ScalingFixture {
   std::vector<VectorXd> states;
   std::unique_ptr<wbm::Data> data;
   std::unique_ptr<wbm::TaskStack> stack;
-  std::vector<Eigen::MatrixXd> J;
-  std::vector<VectorXd> xdot, gradient;
-  std::vector<VectorXd> qdot_task;  ///< the controller's J# x_dot at the recorded cycles (empty: not compared)
+  RecordedSolves solves;  ///< the solver's inputs of the recorded cycles
+  std::vector<VectorXd> gradient;
   std::unique_ptr<wbm::WholeBodySolver> solver;
 };
 
@@ -274,7 +262,7 @@ void bm_scaling(benchmark::State& state, const ScalingCase* c, ScalingStage stag
       timed_loop(
           state, [&] { k = (k + 1) % n; },
           [&] {
-            benchmark::DoNotOptimize(f->solver->solve(f->J[k], f->xdot[k], f->gradient[k], f->command.free_dofs, kDt));
+            benchmark::DoNotOptimize(f->solver->solve(f->solves.J[k], f->solves.xdot[k], f->gradient[k], f->command.free_dofs, kDt));
           });
       break;
   }
