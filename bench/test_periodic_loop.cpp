@@ -51,8 +51,12 @@ TEST(PeriodicLoop, RunsOneCycleAndOneBeforePerPeriodWithThePeriodAsDt) {
           dt_seen = dt;
           return std::uint32_t{0};
         });
-    EXPECT_EQ(r.periods, 100) << "spin " << spin;
-    EXPECT_EQ(cycles, 110);
+    // 100 recorded starts, each run or skipped (skipped only if the machine stalls the test
+    // by a whole period); the warm-up's 10 periods run but are not recorded.
+    EXPECT_EQ(r.periods + r.skipped, 100) << "spin " << spin;
+    EXPECT_GE(r.periods, 50) << "spin " << spin;
+    EXPECT_GE(cycles, r.periods + 1);
+    EXPECT_LE(cycles, r.periods + 10);
     EXPECT_EQ(before, cycles);
     EXPECT_DOUBLE_EQ(dt_seen, 0.002);
     EXPECT_LE(r.cycle_p50, r.cycle_p99);
@@ -61,8 +65,8 @@ TEST(PeriodicLoop, RunsOneCycleAndOneBeforePerPeriodWithThePeriodAsDt) {
     EXPECT_LE(r.wake_p50, r.wake_p99);
     EXPECT_LE(r.wake_p99, r.wake_max);
     EXPECT_GE(r.busy_max, r.cycle_max - 1e-3);  // the samples are floats [us]: 1 ns
-    ASSERT_EQ(r.cycle_us.size(), 100u);
-    ASSERT_EQ(r.wake_us.size(), 100u);
+    ASSERT_EQ(r.cycle_us.size(), static_cast<std::size_t>(r.periods));
+    ASSERT_EQ(r.wake_us.size(), static_cast<std::size_t>(r.periods));
     EXPECT_DOUBLE_EQ(*std::max_element(r.cycle_us.begin(), r.cycle_us.end()), r.cycle_max);
     EXPECT_DOUBLE_EQ(*std::max_element(r.wake_us.begin(), r.wake_us.end()), r.wake_max);
     EXPECT_DOUBLE_EQ(r.period_us, 2000.0);
@@ -83,11 +87,16 @@ TEST(PeriodicLoop, ACycleLongerThanThePeriodIsAnOverrunAndLaterStartsAreSkipped)
   });
   // 25 recorded period starts in 50 ms, each one either run or skipped: the first skipped
   // by the warm-up's long cycle, then four times four short cycles, a long one and a skipped
-  // start: 20 run (4 overrun), 5 skipped (more skipped if the machine stalls the test).
+  // start: 20 run (4 overrun), 5 skipped. A machine that stalls the test skips more starts
+  // and so runs fewer cycles, long ones among them (a CI run under load saw 3): the counts
+  // are checked against the long cycles that actually ran. Each overruns, and each passes
+  // the next start by a whole period, which is skipped.
+  const long long_cycles = std::count_if(r.cycle_us.begin(), r.cycle_us.end(), [](float us) { return us >= 5000.0f; });
   EXPECT_EQ(r.periods + r.skipped, 25);
   EXPECT_LE(r.periods, 20);
-  EXPECT_GE(r.overruns, 4);
-  EXPECT_GE(r.skipped, 5);
+  EXPECT_GE(long_cycles, 2) << "the test needs long cycles to run after the warm-up";
+  EXPECT_GE(r.overruns, long_cycles);
+  EXPECT_GE(r.skipped, long_cycles + 1);  // + the start skipped by the warm-up's long cycle
   EXPECT_GE(r.cycle_max, 5000.0);
   EXPECT_GT(r.busy_max, 2000.0);  // more than the 2 ms period [us]
 }
