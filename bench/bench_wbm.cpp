@@ -198,7 +198,7 @@ bool parse_own_flags(int& argc, char** argv, FixtureSpec& custom, LoopRequest& l
     return false;
   }
   if (hands[0] == hands[1]) {
-    error = "--wbm_hands=" + flags["hands"] + ": two different frames expected (left and right hand)";
+    error = "--hands " + flags["hands"] + " (--wbm_hands): two different frames expected (left and right hand)";
     return false;
   }
   if (flags["head"] == hands[0] || flags["head"] == hands[1]) {

@@ -1,8 +1,8 @@
 #include "wbm/model.hpp"
 
 #include <algorithm>
-#include <limits>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <unordered_set>
 
