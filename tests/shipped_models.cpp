@@ -80,6 +80,36 @@ std::vector<ShippedModel> shipped_urdf_models() {
   return out;
 }
 
+std::vector<ShippedModel> import_variants() {
+  std::vector<ShippedModel> variants;
+  ShippedModel g1 = shipped_model("g1_29dof");
+  g1.id = "g1_29dof_torso_root";
+  g1.options.root = "torso_link";
+  variants.push_back(g1);
+  g1 = shipped_model("g1_29dof");
+  g1.id = "g1_29dof_legs_dropped";
+  g1.options.leg_mode = wbm::LegMode::kDrop;
+  variants.push_back(g1);
+  for (const std::string root : {"", "link_b", "tool"}) {
+    ShippedModel m;
+    m.id = "synthetic_root_" + (root.empty() ? std::string("base") : root);
+    m.path = source_path("tests/data/mimic_prismatic.urdf");
+    m.options.root = root;
+    m.options.legs = {"leg"};
+    m.options.root_height = 0.7;
+    m.left_hand = m.right_hand = "tool";
+    m.has_mimic = true;
+    variants.push_back(m);
+  }
+  return variants;
+}
+
+ShippedModel import_variant(const std::string& id) {
+  for (const ShippedModel& m : import_variants())
+    if (m.id == id) return m;
+  throw std::out_of_range("no import variant with id '" + id + "'");
+}
+
 const ShippedModel& shipped_model(const std::string& id) {
   for (const ShippedModel& m : shipped_models())
     if (m.id == id) return m;

@@ -42,6 +42,12 @@ inline void PrintTo(const ShippedModel& m, std::ostream* os) { *os << m.id; }
 const std::vector<ShippedModel>& shipped_models();
 /// Only the URDF entries.
 std::vector<ShippedModel> shipped_urdf_models();
+/// URDF import options the shipped list does not use, on shipped files: G1 re-rooted at its
+/// torso (its waist joints reversed), G1 with its legs dropped, and a synthetic robot with
+/// prismatic and mimic joints (multipliers, offsets) rooted at three of its links.
+std::vector<ShippedModel> import_variants();
+/// The import variant with this id; throws std::out_of_range if there is none.
+ShippedModel import_variant(const std::string& id);
 /// The entry with this id; throws std::out_of_range if there is none.
 const ShippedModel& shipped_model(const std::string& id);
 

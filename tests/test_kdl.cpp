@@ -79,7 +79,7 @@ struct KdlJoint {
 /// relative to the root link and virtual-dof columns are skipped. true: the tree has every
 /// dof of ours and its base is our world frame; everything is compared in world coordinates.
 void compare_with_kdl(const std::string& id, const Model& model, const KDL::Tree& tree,
-                      const std::map<std::string, Mimic>& mimics, bool whole_tree) {
+                      const std::map<std::string, Mimic>& mimics, bool whole_tree, int dropped_segments = 0) {
   const unsigned nj = tree.getNrOfJoints();
   std::vector<KdlJoint> joints;
   for (const auto& [segment_name, element] : tree.getSegments()) {
@@ -98,8 +98,9 @@ void compare_with_kdl(const std::string& id, const Model& model, const KDL::Tree
   for (int f = 0; f < model.num_frames(); ++f)
     if ((whole_tree || model.frame(f).body >= v.upper_body) && tree.getSegments().count(model.frame(f).name))
       frames.push_back(f);
-  // Every URDF link except a cut-off world link (or the exported world link) is a frame of ours.
-  EXPECT_GE(frames.size() + 1, tree.getSegments().size()) << "frames missing in our model";
+  // Every URDF link except a cut-off world link (or the exported world link) and the links
+  // of dropped legs is a frame of ours.
+  EXPECT_GE(frames.size() + 1 + dropped_segments, tree.getSegments().size()) << "frames missing in our model";
   const int root_frame = whole_tree ? -1 : model.frame_index(root);
   auto compared = [&](int dof) { return whole_tree || model.dof(dof).role == wbm::DofRole::kJoint; };
 
@@ -142,7 +143,7 @@ void compare_with_kdl(const std::string& id, const Model& model, const KDL::Tree
   KDL::TreeFkSolverPos_recursive kdl_fk(tree);
   KDL::TreeJntToJacSolver kdl_jac(tree);
   KDL::JntArray kq(nj);
-  KDL::Jacobian kJ(nj);
+  KDL::Jacobian kJ(nj), kJ_root(nj);
   Data data(model);
   Eigen::MatrixXd J(6, model.num_dofs());
   std::mt19937_64 rng(2024);
@@ -157,6 +158,9 @@ void compare_with_kdl(const std::string& id, const Model& model, const KDL::Tree
     KDL::Frame kdl_root;
     ASSERT_GE(kdl_fk.JntToCart(kq, kdl_root, root), 0);
     const Transform X_B_root = to_transform(kdl_root);
+    // The root link's own motion in KDL's tree: zero unless the model was re-rooted at a
+    // link below KDL's root (UrdfImportOptions::root), whose joints then move that link.
+    ASSERT_GE(kdl_jac.JntToJac(kq, kJ_root, root), 0) << root;
 
     for (const int f : frames) {
       const std::string& name = model.frame(f).name;
@@ -173,13 +177,21 @@ void compare_with_kdl(const std::string& id, const Model& model, const KDL::Tree
                       << theirs.R << "\n  " << theirs.p.transpose()
                       << "\n  q = " << wbm_test::describe_configuration(model, q);
 
-      // Jacobians in root-link coordinates, reference point at the frame origin.
+      // Jacobians in root-link coordinates, reference point at the frame origin, of the
+      // motion relative to the root link: KDL's column minus the root link's motion (its
+      // twist moved to the frame origin: v_R + w_R x (p_F - p_R)).
       ASSERT_GE(kdl_jac.JntToJac(kq, kJ, name), 0) << name;
       wbm::frame_jacobian(model, data, f, J);
+      const Eigen::Vector3d p_RF_B = to_transform(kdl_pose).p - X_B_root.p;
       Eigen::MatrixXd expected = Eigen::MatrixXd::Zero(6, model.num_dofs());
       for (unsigned k = 0; k < nj; ++k) {
         const auto [dof, factor] = column_target[k];
-        if (dof >= 0) expected.col(dof) += factor * kJ.data.col(k);
+        if (dof < 0) continue;
+        const Eigen::Vector3d w_root = kJ_root.data.col(k).tail<3>();
+        Eigen::Matrix<double, 6, 1> relative = kJ.data.col(k);
+        relative.head<3>() -= kJ_root.data.col(k).head<3>() + w_root.cross(p_RF_B);
+        relative.tail<3>() -= w_root;
+        expected.col(dof) += factor * relative;
       }
       const Eigen::Matrix3d R_root_B = X_B_root.R.transpose();
       expected.topRows(3) = R_root_B * expected.topRows(3);
@@ -215,7 +227,16 @@ TEST_P(KdlComparison, PosesAndJacobiansMatchKdl) {
   KDL::Tree tree;
   if (!kdl_parser::treeFromFile(entry.path, tree))
     GTEST_SKIP() << "kdl_parser could not parse " << entry.path << " (no KDL reference for model " << entry.id << ")";
-  compare_with_kdl(entry.id, model, tree, read_mimics(urdf::parseURDFFile(entry.path), entry.path), false);
+  int dropped = 0;  // links of legs removed (LegMode::kDrop): the leg link's subtree in KDL's tree
+  if (entry.options.leg_mode == wbm::LegMode::kDrop) {
+    std::function<int(const KDL::SegmentMap::const_iterator&)> subtree_size = [&](const auto& segment) {
+      int size = 1;
+      for (const auto& child : GetTreeElementChildren(segment->second)) size += subtree_size(child);
+      return size;
+    };
+    for (const std::string& leg : entry.options.legs) dropped += subtree_size(tree.getSegments().find(leg));
+  }
+  compare_with_kdl(entry.id, model, tree, read_mimics(urdf::parseURDFFile(entry.path), entry.path), false, dropped);
 }
 
 /// The whole tree as exported with the virtual dofs, parsed by kdl_parser.
@@ -248,6 +269,9 @@ TEST(KdlWholeTreePaper, ExportWithVirtualDofsMatchesKdl) { compare_whole_tree_wi
 std::string case_name(const testing::TestParamInfo<ShippedModel>& param) { return param.param.id; }
 
 INSTANTIATE_TEST_SUITE_P(ShippedUrdfs, KdlComparison, testing::ValuesIn(wbm_test::shipped_urdf_models()), case_name);
+// Re-rooted (KDL keeps the URDF's root: Jacobians compared relative to our root link) and
+// with dropped legs (KDL has their links).
+INSTANTIATE_TEST_SUITE_P(ImportVariants, KdlComparison, testing::ValuesIn(wbm_test::import_variants()), case_name);
 INSTANTIATE_TEST_SUITE_P(ShippedUrdfs, KdlWholeTree, testing::ValuesIn(wbm_test::shipped_urdf_models()), case_name);
 
 }  // namespace

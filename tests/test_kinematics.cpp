@@ -40,35 +40,10 @@ constexpr double kStep = 1e-6;         // central-difference step [rad] or [m]
 constexpr double kFdTolerance = 1e-6;  // |analytic - finite difference|, per entry
 constexpr int kMaxReportedFailures = 8;
 
-/// G1 imported with its torso as the root: the waist joints are reversed.
-ShippedModel g1_torso_root() {
-  ShippedModel m = wbm_test::shipped_model("g1_29dof");
-  m.id = "g1_29dof_torso_root";
-  m.options.root = "torso_link";
-  return m;
-}
-
-/// Synthetic robot with prismatic and mimic joints (multiplier != 1, offsets), imported
-/// from several roots so that every kind of joint is also reversed.
-ShippedModel synthetic(const std::string& root) {
-  ShippedModel m;
-  m.id = "synthetic_root_" + (root.empty() ? std::string("base") : root);
-  m.path = wbm_test::source_path("tests/data/mimic_prismatic.urdf");
-  m.options.root = root;
-  m.options.legs = {"leg"};
-  m.options.root_height = 0.7;
-  m.left_hand = m.right_hand = "tool";
-  m.has_mimic = true;
-  return m;
-}
-
-/// The shipped models plus re-rooted and synthetic variants.
+/// The shipped models plus the import variants (re-rooted, legs dropped, synthetic).
 std::vector<ShippedModel> kinematic_cases() {
   std::vector<ShippedModel> cases = wbm_test::shipped_models();
-  cases.push_back(g1_torso_root());
-  cases.push_back(synthetic(""));
-  cases.push_back(synthetic("link_b"));
-  cases.push_back(synthetic("tool"));
+  for (const ShippedModel& m : wbm_test::import_variants()) cases.push_back(m);
   return cases;
 }
 
@@ -649,7 +624,7 @@ std::vector<std::string> link_frames(const Model& model) {
 TEST(ReRooting, G1TorsoRootGivesTheSameRelativePoses) {
   const ShippedModel& g1 = wbm_test::shipped_model("g1_29dof");
   const Model pelvis = g1.load();
-  const Model torso = g1_torso_root().load();
+  const Model torso = wbm_test::import_variant("g1_29dof_torso_root").load();
   EXPECT_EQ(torso.body(torso.virtual_dofs().upper_body).name, "torso_link");
   EXPECT_NEAR(torso.total_mass(), pelvis.total_mass(), 1e-9);
   ASSERT_EQ(torso.num_dofs(), pelvis.num_dofs());
@@ -691,7 +666,7 @@ TEST(ReRooting, G1TorsoRootGivesTheSameRelativePoses) {
 TEST(ReRooting, RootHeightComesFromTheLegsAlsoWhenTheyHangBelowReversedJoints) {
   const ShippedModel& g1 = wbm_test::shipped_model("g1_29dof");
   const Model pelvis = g1.load();
-  const Model torso = g1_torso_root().load();
+  const Model torso = wbm_test::import_variant("g1_29dof_torso_root").load();
   // Expected: the lowest leg link origin below the root origin at zero joint values.
   Data data(pelvis);
   Eigen::VectorXd q = Eigen::VectorXd::Zero(pelvis.num_dofs());
