@@ -1,5 +1,9 @@
 #include "shipped_models.hpp"
 
+#include <cstdlib>
+#include <fstream>
+#include <iostream>
+#include <sstream>
 #include <stdexcept>
 
 #include "wbm/paper_model.hpp"
@@ -19,6 +23,80 @@ ShippedModel urdf(std::string id, const std::string& relative, std::vector<std::
   m.right_hand = std::move(right_hand);
   m.head = std::move(head);
   m.has_mimic = has_mimic;
+  return m;
+}
+
+/// The list is built at static initialisation, before gtest runs: a bad variable ends the
+/// process with the script's flag, the variable, what was expected and exit status 2.
+[[noreturn]] void environment_error(const std::string& message) {
+  std::cerr << "error: " << message << "\n";
+  std::exit(2);
+}
+
+std::vector<std::string> split_names(const char* flag, const char* variable) {
+  std::vector<std::string> names;
+  const char* text = std::getenv(variable);
+  if (text == nullptr || *text == '\0') return names;
+  std::stringstream in(text);
+  for (std::string name; std::getline(in, name, ',');) {
+    if (name.empty()) environment_error(std::string(flag) + " (" + variable + "): empty name in '" + text + "'");
+    names.push_back(name);
+  }
+  return names;
+}
+
+std::string join(const std::vector<std::string>& names) {
+  std::string text;
+  for (const std::string& name : names) text += (text.empty() ? "" : ",") + name;
+  return text;
+}
+
+/// The user's robot (scripts/check_model.sh): WBM_TEST_URDF=PATH, WBM_TEST_HANDS=LEFT,RIGHT
+/// (frames), optional WBM_TEST_HEAD (frame), WBM_TEST_LEGS=A,B, WBM_TEST_ROOT (links),
+/// WBM_TEST_ROOT_HEIGHT (m), WBM_TEST_DEFAULT_LIMITS=1, WBM_TEST_DROP_LEGS=1,
+/// WBM_TEST_FIXED_BASE=1. Its id, in test names, is "user".
+ShippedModel model_from_environment() {
+  ShippedModel m;
+  m.id = "user";
+  m.path = std::getenv("WBM_TEST_URDF");
+  m.has_mimic.reset();  // not known: the comparison with KDL checks mimic coupling
+  if (!std::ifstream(m.path)) environment_error("WBM_TEST_URDF: cannot read '" + m.path + "'");
+  const std::vector<std::string> hands = split_names("--hands", "WBM_TEST_HANDS");
+  if (hands.size() != 2)
+    environment_error("--hands (WBM_TEST_HANDS): expected LEFT,RIGHT (two frames of " + m.path + "), got " +
+                      std::to_string(hands.size()) + ": '" + join(hands) + "'");
+  m.left_hand = hands[0];
+  m.right_hand = hands[1];
+  const std::vector<std::string> head = split_names("--head", "WBM_TEST_HEAD");
+  if (head.size() > 1) environment_error("--head (WBM_TEST_HEAD): expected one frame");
+  if (!head.empty()) m.head = head[0];
+  m.options.legs = split_names("--legs", "WBM_TEST_LEGS");
+  const std::vector<std::string> root = split_names("--root", "WBM_TEST_ROOT");
+  if (root.size() > 1) environment_error("--root (WBM_TEST_ROOT): expected one link");
+  if (!root.empty()) m.options.root = root[0];
+  if (const char* height = std::getenv("WBM_TEST_ROOT_HEIGHT"); height != nullptr && *height != '\0') {
+    char* end = nullptr;
+    m.options.root_height = std::strtod(height, &end);
+    if (*end != '\0' || !(m.options.root_height > 0.0))
+      environment_error(std::string("--root-height (WBM_TEST_ROOT_HEIGHT): expected a height > 0 in metres, got '") +
+                        height + "'");
+  }
+  m.options.default_limits = std::getenv("WBM_TEST_DEFAULT_LIMITS") != nullptr;
+  if (std::getenv("WBM_TEST_DROP_LEGS") != nullptr) m.options.leg_mode = wbm::LegMode::kDrop;
+  m.fixed_base = std::getenv("WBM_TEST_FIXED_BASE") != nullptr;
+  // Load it and look the frames up once here, so that a wrong file or name is one message.
+  if (m.left_hand == m.right_hand) environment_error("--hands (WBM_TEST_HANDS): the two hands are the same frame");
+  std::string what;  // the URDF file: its errors name the file and line
+  try {
+    const wbm::Model model = m.load();
+    what = "--hands (WBM_TEST_HANDS): ";
+    model.frame_index(m.left_hand);
+    model.frame_index(m.right_hand);
+    what = "--head (WBM_TEST_HEAD): ";
+    if (!m.head.empty()) model.frame_index(m.head);
+  } catch (const std::exception& e) {
+    environment_error(what + e.what());
+  }
   return m;
 }
 
@@ -57,7 +135,9 @@ std::vector<ShippedModel> make_list() {
   dual_arm.path = source_path("models/dual_arm/dual_arm.urdf");
   dual_arm.left_hand = "left_tool";
   dual_arm.right_hand = "right_tool";
+  dual_arm.fixed_base = true;
   list.push_back(dual_arm);
+  if (std::getenv("WBM_TEST_URDF") != nullptr) list.push_back(model_from_environment());
   return list;
 }
 
@@ -66,6 +146,16 @@ std::vector<ShippedModel> make_list() {
 wbm::Model ShippedModel::load() const {
   if (path.empty()) return wbm::make_paper_model();
   return wbm::load_urdf(path, options);
+}
+
+Eigen::VectorXd ShippedModel::start(const wbm::Model& model) const {
+  return fixed_base ? wbm::upright_base_configuration(model, model.home()) : model.home();
+}
+
+void ShippedModel::freeze_base(const wbm::Model& model, wbm::Mask& free_dofs) const {
+  if (!fixed_base) return;
+  for (const int i : model.virtual_dofs().all())
+    if (i >= 0) free_dofs[i] = false;
 }
 
 const std::vector<ShippedModel>& shipped_models() {

@@ -4,11 +4,13 @@
 /// paper model, every URDF under models/third_party/ and wbm's own dual-arm robot
 /// (models/dual_arm/). Shared by tests and benchmarks.
 
+#include <optional>
 #include <ostream>
 #include <string>
 #include <vector>
 
 #include "wbm/model.hpp"
+#include "wbm/task_stack.hpp"
 #include "wbm/urdf_import.hpp"
 
 #ifndef WBM_SOURCE_DIR
@@ -27,18 +29,27 @@ struct ShippedModel {
   /// Natural hand frames (a palm/gripper point where the file has one, else the last arm
   /// link) and the head/gaze frame (camera or gaze frame; empty if none).
   std::string left_hand, right_hand, head;
-  /// Joints driven through <mimic> (the model covers mimic coupling).
-  bool has_mimic = false;
+  /// Joints driven through <mimic> (the model covers mimic coupling); unknown for the
+  /// user's robot (a <mimic> element may sit on a fixed joint or in a locked leg).
+  std::optional<bool> has_mimic = false;
+  /// The base never moves (a robot bolted to the world): tests that run the controller
+  /// start from the upright base and keep the nine virtual dofs frozen.
+  bool fixed_base = false;
 
   bool is_urdf() const { return !path.empty(); }
   /// Builds the model (make_paper_model() or load_urdf(path, options)).
   wbm::Model load() const;
+  /// Where a controller starts: home, with the base upright if it is fixed.
+  Eigen::VectorXd start(const wbm::Model& model) const;
+  /// Clears the virtual dofs in a free-dof mask if the base is fixed.
+  void freeze_base(const wbm::Model& model, wbm::Mask& free_dofs) const;
 };
 
 /// gtest prints parameters with this (instead of a byte dump).
 inline void PrintTo(const ShippedModel& m, std::ostream* os) { *os << m.id; }
 
-/// All shipped models: the paper model first, then the URDFs.
+/// All shipped models: the paper model first, then the URDFs; and last, if the environment
+/// names one (WBM_TEST_URDF, scripts/check_model.sh), the user's robot with id "user".
 const std::vector<ShippedModel>& shipped_models();
 /// Only the URDF entries.
 std::vector<ShippedModel> shipped_urdf_models();

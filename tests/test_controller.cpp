@@ -1,5 +1,6 @@
-// Controller cycle: allocation-free, convergence to reachable targets on the paper model
-// and two URDFs, and the trajectory filter's guarantees (section III).
+// Controller cycle: allocation-free, convergence to reachable targets on every shipped
+// model (and the user's, scripts/check_model.sh), and the trajectory filter's guarantees
+// (section III).
 #include <algorithm>
 #include <cmath>
 #include <iostream>
@@ -78,7 +79,8 @@ TEST(Controller, CycleAllocatesNothing) {
   }
 }
 
-/// Targets from a random reachable configuration near home; start at home; converge.
+/// Targets from a random reachable configuration near home; start at home; converge to
+/// 0.1 mm and 0.1 deg, allocating nothing in the cycles.
 void converge(const wbm_test::ShippedModel& entry, unsigned seed, int targets) {
   const Model model = entry.load();
   Data data(model);
@@ -86,7 +88,7 @@ void converge(const wbm_test::ShippedModel& entry, unsigned seed, int targets) {
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> u(-0.2, 0.2);
   for (int t = 0; t < targets; ++t) {
-    VectorXd q_target = model.home();
+    VectorXd q_target = entry.start(model);
     for (int i = 0; i < model.num_dofs(); ++i)
       if (model.dof(i).role == DofRole::kJoint && !model.dof(i).continuous)
         q_target[i] = std::clamp(q_target[i] + u(rng) * model.dof(i).work_range, model.dof(i).lower, model.dof(i).upper);
@@ -97,12 +99,14 @@ void converge(const wbm_test::ShippedModel& entry, unsigned seed, int targets) {
     c.add_task(std::make_unique<AxisTask>(model, "l_grasp", entry.left_hand), {5.0, 1.5, 2});
     c.add_task(std::make_unique<PositionTask>(model, "r_hand", entry.right_hand), {5.0, 0.5, 2});
     c.add_task(std::make_unique<AxisTask>(model, "r_grasp", entry.right_hand), {5.0, 1.5, 2});
-    c.reset(model.home());
+    c.reset(entry.start(model));
     Command cmd = c.make_command();
     for (int i : {model.virtual_dofs().heel_x, model.virtual_dofs().heel_y, model.virtual_dofs().heel_yaw})
       cmd.free_dofs[i] = false;
+    entry.freeze_base(model, cmd.free_dofs);
     cmd.targets << L.p, L.R.col(2), R.p, R.R.col(2);
     double pos = 0, ang = 0;
+    wbm_test::AllocationCounter counter;
     for (int k = 0; k < 4000; ++k) {
       c.update(cmd, 0.002);
       pos = std::max((c.values().segment<3>(0) - L.p).norm(), (c.values().segment<3>(6) - R.p).norm());
@@ -110,14 +114,23 @@ void converge(const wbm_test::ShippedModel& entry, unsigned seed, int targets) {
       ang = std::max(angle(c.values().segment<3>(3), L.R.col(2)), angle(c.values().segment<3>(9), R.R.col(2)));
       if (k > 200 && pos < 1e-4 && ang < 0.1 * M_PI / 180) break;
     }
+    EXPECT_EQ(counter.count(), 0) << entry.id << " target " << t;
     EXPECT_LT(pos, 1e-4) << entry.id << " target " << t << "\nq_target = " << q_target.transpose();
     EXPECT_LT(ang * 180 / M_PI, 0.1) << entry.id << " target " << t << "\nq_target = " << q_target.transpose();
   }
 }
 
-TEST(Controller, ConvergesPaperModel) { converge(wbm_test::shipped_model("paper"), 11, 25); }
-TEST(Controller, ConvergesG1) { converge(wbm_test::shipped_model("g1_29dof"), 12, 15); }
-TEST(Controller, ConvergesRomeo) { converge(wbm_test::shipped_model("romeo_small"), 13, 15); }
+/// Runs on every shipped model and, through scripts/check_model.sh, on the user's robot.
+class EveryModel : public testing::TestWithParam<wbm_test::ShippedModel> {};
+
+TEST_P(EveryModel, ConvergesToReachableHandTargetsWithoutAllocating) {
+  const wbm_test::ShippedModel& entry = GetParam();
+  converge(entry, entry.id == "paper" ? 11 : 12, entry.id == "paper" ? 25 : 15);
+}
+
+std::string model_id(const testing::TestParamInfo<wbm_test::ShippedModel>& info) { return info.param.id; }
+
+INSTANTIATE_TEST_SUITE_P(Models, EveryModel, testing::ValuesIn(wbm_test::shipped_models()), model_id);
 
 TEST(TrajectoryFilter, NoOvershootSpeedLimitContinuousVelocity) {
   std::mt19937_64 rng(17);

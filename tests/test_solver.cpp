@@ -38,13 +38,19 @@ std::string describe(const VectorXd& q, const Mask& rows, const Mask& free) {
   return out.str();
 }
 
-/// The paper's full task vector (eq. 4): both hands' position and grasp axis, view axis.
+/// The paper's task vector (eq. 4) on any model: both hands' position and grasp axis, and
+/// the view axis if the model has a head frame.
+void add_hand_tasks(const Model& model, TaskStack& stack, const std::string& left, const std::string& right,
+                    const std::string& head) {
+  stack.add(std::make_unique<PositionTask>(model, "l_hand", left));
+  stack.add(std::make_unique<AxisTask>(model, "l_grasp", left));
+  stack.add(std::make_unique<PositionTask>(model, "r_hand", right));
+  stack.add(std::make_unique<AxisTask>(model, "r_grasp", right));
+  if (!head.empty()) stack.add(std::make_unique<AxisTask>(model, "view", head));
+}
+
 void add_paper_tasks(const Model& model, TaskStack& stack) {
-  stack.add(std::make_unique<PositionTask>(model, "l_hand", "l_hand_ref"));
-  stack.add(std::make_unique<AxisTask>(model, "l_grasp", "l_hand_ref"));
-  stack.add(std::make_unique<PositionTask>(model, "r_hand", "r_hand_ref"));
-  stack.add(std::make_unique<AxisTask>(model, "r_grasp", "r_hand_ref"));
-  stack.add(std::make_unique<AxisTask>(model, "view", "head_camera"));
+  add_hand_tasks(model, stack, "l_hand_ref", "r_hand_ref", "head_camera");
 }
 
 /// Random targets near the current values, so that errors are moderate.
@@ -114,41 +120,47 @@ TEST(Solver, GramKernelsMatchEigen) {
   }
 }
 
+/// The per-model properties below run on every shipped model and, through
+/// scripts/check_model.sh, on the user's robot (test names end in the model's id).
+class EveryModel : public testing::TestWithParam<wbm_test::ShippedModel> {};
+
 // The cheaper position() and z_axis() of a frame agree with its full pose, in the world and
-// relative to a reference frame, on every shipped model.
-TEST(RelativeFrame, PositionAndAxisAgreeWithThePose) {
-  for (const auto& entry : wbm_test::shipped_models()) {
-    const Model model = entry.load();
-    std::mt19937_64 rng(43);
-    Data data(model);
-    for (const std::string reference : {"", "heel"}) {
-      const RelativeFrame frame(model, entry.left_hand, reference);
-      for (int c = 0; c < 50; ++c) {
-        forward_kinematics(model, data, wbm_test::random_configuration(model, rng));
-        const Transform X = frame.pose(model, data);
-        ASSERT_LT((frame.position(model, data) - X.p).norm(), 1e-12) << entry.id << " " << reference;
-        ASSERT_LT((frame.z_axis(model, data) - X.R.col(2)).norm(), 1e-12) << entry.id << " " << reference;
-      }
+// relative to a reference frame.
+
+TEST_P(EveryModel, RelativeFramePositionAndAxisAgreeWithThePose) {
+  const wbm_test::ShippedModel& entry = GetParam();
+  const Model model = entry.load();
+  std::mt19937_64 rng(43);
+  Data data(model);
+  for (const std::string reference : {"", "heel"}) {
+    const RelativeFrame frame(model, entry.left_hand, reference);
+    for (int c = 0; c < 50; ++c) {
+      forward_kinematics(model, data, wbm_test::random_configuration(model, rng));
+      const Transform X = frame.pose(model, data);
+      ASSERT_LT((frame.position(model, data) - X.p).norm(), 1e-12) << entry.id << " " << reference;
+      ASSERT_LT((frame.z_axis(model, data) - X.R.col(2)).norm(), 1e-12) << entry.id << " " << reference;
     }
   }
 }
 
-TEST(Solver, PseudoInverseAndNullSpaceIdentities) {
-  const Model model = make_paper_model();
+/// J J# = I at full rank, J N = 0, N N = N and frozen dofs exactly still (eqs. 6, 7 and
+/// IV.D) on `cases` random configurations, activations and constraints of the stack's rows
+/// (a fixed base always frozen).
+void check_pseudo_inverse_identities(const wbm_test::ShippedModel& entry, const Model& model, TaskStack& stack,
+                                     unsigned seed, int cases) {
   Data data(model);
-  TaskStack stack(model);
-  add_paper_tasks(model, stack);
   WholeBodySolver solver(model, stack.num_rows());
-  std::mt19937_64 rng(20051205);
+  std::mt19937_64 rng(seed);
   std::bernoulli_distribution coin(0.7), freeze(0.15);
   const int n = model.num_dofs();
   int full_rank = 0;
-  for (int c = 0; c < property_cases(); ++c) {
+  for (int c = 0; c < cases; ++c) {
     const VectorXd q = wbm_test::random_configuration(model, rng);
     forward_kinematics(model, data, q);
     for (int r = 0; r < stack.num_rows(); ++r) stack.activation()[r] = coin(rng);
     Mask free(n);
     for (int i = 0; i < n; ++i) free[i] = !freeze(rng);
+    entry.freeze_base(model, free);
     randomize_targets(model, data, stack, rng);
     const int m = stack.assemble(model, data);
     const MatrixXd J = stack.jacobian();
@@ -177,7 +189,27 @@ TEST(Solver, PseudoInverseAndNullSpaceIdentities) {
     ASSERT_LT((N * N - N).norm(), 1e-9 * scale * scale) << describe(q, stack.activation(), free);
   }
   // The identities must have been checked on most cases, not skipped.
-  EXPECT_GT(full_rank, property_cases() / 2);
+  EXPECT_GT(full_rank, cases / 2) << model.name();
+}
+
+TEST(Solver, PseudoInverseAndNullSpaceIdentities) {
+  const Model model = make_paper_model();
+  TaskStack stack(model);
+  add_paper_tasks(model, stack);
+  check_pseudo_inverse_identities(wbm_test::shipped_model("paper"), model, stack, 20051205, property_cases());
+}
+
+/// Cases of a property on each model when it runs on all of them (10^4 in all by default).
+int cases_per_model() {
+  return std::max(50, property_cases() / static_cast<int>(wbm_test::shipped_models().size()));
+}
+
+TEST_P(EveryModel, PseudoInverseAndNullSpaceIdentitiesWithTheHandAndViewRows) {
+  const wbm_test::ShippedModel& entry = GetParam();
+  const Model model = entry.load();
+  TaskStack stack(model);
+  add_hand_tasks(model, stack, entry.left_hand, entry.right_hand, entry.head);
+  check_pseudo_inverse_identities(entry, model, stack, 1205, cases_per_model());
 }
 
 TEST(Solver, NullSpaceMotionDoesNotMoveTheTask) {
@@ -216,9 +248,14 @@ TEST(Solver, NullSpaceMotionDoesNotMoveTheTask) {
 
 /// Random controller runs: random targets (some unreachable), activation and constraint
 /// switching at random cycles, NaN targets now and then. Every cycle: no NaN, positions
-/// within limits, speeds within limits, frozen dofs exactly still.
-void random_controller_run(const Model& model, const std::string& l, const std::string& r, const std::string& head,
-                           unsigned seed, int cycles, const std::vector<std::string>& posture = {}) {
+/// within limits, speeds within limits, frozen dofs exactly still. A fixed base stays
+/// frozen throughout.
+void random_controller_run(const wbm_test::ShippedModel& entry, unsigned seed, int cycles,
+                           const std::vector<std::string>& posture = {}) {
+  const Model model = entry.load();
+  const std::string& l = entry.left_hand;
+  const std::string& r = entry.right_hand;
+  const std::string& head = entry.head;
   Controller c(model);
   c.add_task(std::make_unique<PositionTask>(model, "l_hand", l));
   c.add_task(std::make_unique<AxisTask>(model, "l_grasp", l));
@@ -228,8 +265,9 @@ void random_controller_run(const Model& model, const std::string& l, const std::
   c.add_task(std::make_unique<AxisTask>(model, "r_grasp", r));
   if (!head.empty()) c.add_task(std::make_unique<AxisTask>(model, "view", head));
   std::mt19937_64 rng(seed);
-  c.reset(model.home());
+  c.reset(entry.start(model));
   Command cmd = c.make_command();
+  entry.freeze_base(model, cmd.free_dofs);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   std::bernoulli_distribution rare(0.01), coin(0.5), freeze(0.1);
   const double dt = 0.002;
@@ -238,6 +276,7 @@ void random_controller_run(const Model& model, const std::string& l, const std::
       for (int i = 0; i < cmd.targets.size(); ++i) cmd.targets[i] = c.values()[i] + 0.6 * u(rng);
       for (int i = 0; i < cmd.task_active.size(); ++i) cmd.task_active[i] = coin(rng);
       for (int i = 0; i < cmd.free_dofs.size(); ++i) cmd.free_dofs[i] = !freeze(rng);
+      entry.freeze_base(model, cmd.free_dofs);
       if (coin(rng)) cmd.targets[0] = std::nan("");
     }
     const VectorXd q_before = c.q();
@@ -255,17 +294,17 @@ void random_controller_run(const Model& model, const std::string& l, const std::
 }
 
 TEST(Controller, RandomRunsKeepLimitsPaperModel) {
-  random_controller_run(make_paper_model(), "l_hand_ref", "r_hand_ref", "head_camera", 1, property_cases());
+  random_controller_run(wbm_test::shipped_model("paper"), 1, property_cases());
 }
 
-TEST(Controller, RandomRunsKeepLimitsG1) {
-  const wbm_test::ShippedModel& g1 = wbm_test::shipped_model("g1_29dof");
-  random_controller_run(g1.load(), g1.left_hand, g1.right_hand, g1.head, 2, property_cases());
+TEST(Controller, RandomRunsKeepLimitsG1) { random_controller_run(wbm_test::shipped_model("g1_29dof"), 2, property_cases()); }
+
+TEST_P(EveryModel, RandomControllerRunsKeepLimits) {
+  random_controller_run(GetParam(), 4, property_cases());
 }
 
 TEST(Controller, RandomRunsKeepLimitsWithJointRows) {
-  const wbm_test::ShippedModel& g1 = wbm_test::shipped_model("g1_29dof");
-  random_controller_run(g1.load(), g1.left_hand, g1.right_hand, g1.head, 3, property_cases(),
+  random_controller_run(wbm_test::shipped_model("g1_29dof"), 3, property_cases(),
                         {"waist_yaw_joint", "left_shoulder_yaw_joint", "right_wrist_roll_joint"});
 }
 
@@ -276,56 +315,58 @@ double axis_angle(const Model& model, Data& data, const VectorXd& q, int frame, 
   return std::atan2(a.cross(target.normalized()).norm(), a.dot(target.normalized()));
 }
 
-TEST(AxisTask, JacobianMatchesFiniteDifferencesOfPhiAndAxis) {
-  for (const wbm_test::ShippedModel& entry : wbm_test::shipped_models()) {
-    if (entry.left_hand.empty()) continue;
-    const Model model = entry.load();
-    Data data(model);
-    AxisTask task(model, "axis", entry.left_hand, "heel");
-    const int frame = model.frame_index(entry.left_hand);
-    std::mt19937_64 rng(99);
-    MatrixXd J(2, model.num_dofs());
-    VectorXd e(2), rate(2);
-    // 10^4 cases over all models together.
-    const int cases = std::max(50, property_cases() / static_cast<int>(wbm_test::shipped_models().size()));
-    for (int c = 0; c < cases; ++c) {
-      const VectorXd q = wbm_test::random_configuration(model, rng);
-      forward_kinematics(model, data, q);
-      const Transform X_WH = frame_pose(model, data, model.frame_index("heel"));
-      const Vector3 target_R = wbm_test::random_direction(3, rng);  // in the heel frame
-      task.evaluate(model, data, target_R, Vector3::Zero(), J, e, rate);
-      const Vector3 target_W = X_WH.R * target_R;
-      const double phi = axis_angle(model, data, q, frame, target_W);
-      if (phi < 1e-3 || phi > M_PI - 1e-3) continue;  // degenerate set: tested separately
-      ASSERT_NEAR(e[1], phi, 1e-12);
-      ASSERT_EQ(e[0], 0.0);
-      const VectorXd v = wbm_test::random_direction(model.num_dofs(), rng);
-      const double h = 1e-6;
-      // The heel frame moves with q too: compare phi in the heel frame.
-      auto phi_heel = [&](const VectorXd& qq) {
-        forward_kinematics(model, data, qq);
-        const Transform X = frame_pose(model, data, model.frame_index("heel")).inverse() * frame_pose(model, data, frame);
-        const Vector3 a = X.R.col(2);
-        return std::atan2(a.cross(target_R.normalized()).norm(), a.dot(target_R.normalized()));
-      };
-      const double dphi = (phi_heel(q + h * v) - phi_heel(q - h * v)) / (2 * h);
-      // Rotating about e_y moves a_g towards a_t: d(phi)/dt = -row_y q_dot.
-      ASSERT_NEAR(dphi, -(J.row(1) * v)(0), 1e-6) << entry.id << " case " << c;
-    }
+TEST_P(EveryModel, AxisJacobianMatchesFiniteDifferencesOfPhiAndAxis) {
+  const wbm_test::ShippedModel& entry = GetParam();
+  const Model model = entry.load();
+  Data data(model);
+  AxisTask task(model, "axis", entry.left_hand, "heel");
+  const int frame = model.frame_index(entry.left_hand);
+  std::mt19937_64 rng(99);
+  MatrixXd J(2, model.num_dofs());
+  VectorXd e(2), rate(2);
+  const int cases = cases_per_model();
+  for (int c = 0; c < cases; ++c) {
+    const VectorXd q = wbm_test::random_configuration(model, rng);
+    forward_kinematics(model, data, q);
+    const Transform X_WH = frame_pose(model, data, model.frame_index("heel"));
+    const Vector3 target_R = wbm_test::random_direction(3, rng);  // in the heel frame
+    task.evaluate(model, data, target_R, Vector3::Zero(), J, e, rate);
+    const Vector3 target_W = X_WH.R * target_R;
+    const double phi = axis_angle(model, data, q, frame, target_W);
+    if (phi < 1e-3 || phi > M_PI - 1e-3) continue;  // degenerate set: tested separately
+    ASSERT_NEAR(e[1], phi, 1e-12);
+    ASSERT_EQ(e[0], 0.0);
+    const VectorXd v = wbm_test::random_direction(model.num_dofs(), rng);
+    const double h = 1e-6;
+    // The heel frame moves with q too: compare phi in the heel frame.
+    auto phi_heel = [&](const VectorXd& qq) {
+      forward_kinematics(model, data, qq);
+      const Transform X = frame_pose(model, data, model.frame_index("heel")).inverse() * frame_pose(model, data, frame);
+      const Vector3 a = X.R.col(2);
+      return std::atan2(a.cross(target_R.normalized()).norm(), a.dot(target_R.normalized()));
+    };
+    const double dphi = (phi_heel(q + h * v) - phi_heel(q - h * v)) / (2 * h);
+    // Rotating about e_y moves a_g towards a_t: d(phi)/dt = -row_y q_dot.
+    ASSERT_NEAR(dphi, -(J.row(1) * v)(0), 1e-6) << entry.id << " case " << c;
   }
 }
 
-TEST(TaskElements, JacobiansMatchFiniteDifferencesOfTheirValues) {
+TEST_P(EveryModel, TaskElementJacobiansMatchFiniteDifferencesOfTheirValues) {
   // Position and centre of mass relative to the heel, attitude relative to the upper body,
-  // joints: J v against the central difference of value() along a random direction.
-  const Model model = make_paper_model();
+  // joints (the first and the last after the nine virtual dofs): J v against the central
+  // difference of value() along a random direction.
+  const wbm_test::ShippedModel& entry = GetParam();
+  const Model model = entry.load();
   Data data(model);
+  const int n = model.num_dofs();
   std::vector<std::unique_ptr<TaskElement>> elements;
-  elements.push_back(std::make_unique<PositionTask>(model, "p", "l_hand_ref", "heel"));
+  elements.push_back(std::make_unique<PositionTask>(model, "p", entry.left_hand, "heel"));
   elements.push_back(std::make_unique<CenterOfMassTask>(model, "c", "heel"));
   elements.push_back(std::make_unique<CenterOfMassTask>(model, "cw"));
-  elements.push_back(std::make_unique<AttitudeTask>(model, "a", "r_hand_ref", "upper_body"));
-  elements.push_back(std::make_unique<JointTask>(model, "j", std::vector<std::string>{"l_elbow", "head_pan"}));
+  elements.push_back(std::make_unique<AttitudeTask>(model, "a", entry.right_hand,
+                                                    model.body(model.virtual_dofs().upper_body).name));
+  elements.push_back(std::make_unique<JointTask>(
+      model, "j", std::vector<std::string>{model.dof(9).name, model.dof(n - 1).name}));
   std::mt19937_64 rng(31);
   auto value_at = [&](TaskElement& e, const VectorXd& q) {
     forward_kinematics(model, data, q);
@@ -344,8 +385,8 @@ TEST(TaskElements, JacobiansMatchFiniteDifferencesOfTheirValues) {
       e->evaluate(model, data, x, VectorXd::Zero(e->target_dim()), J, err, rate);
       const double h = 1e-6;
       VectorXd fd = (value_at(*e, q + h * v) - value_at(*e, q - h * v)) / (2 * h);
-      ASSERT_LT((fd - J * v).norm(), 1e-6 * (1 + fd.norm())) << e->name() << " case " << c;
-      ASSERT_LT(err.norm(), 1e-12) << e->name();  // zero error at its own value
+      ASSERT_LT((fd - J * v).norm(), 1e-6 * (1 + fd.norm())) << entry.id << " " << e->name() << " case " << c;
+      ASSERT_LT(err.norm(), 1e-12) << entry.id << " " << e->name();  // zero error at its own value
     }
   }
 }
@@ -587,5 +628,10 @@ TEST(Controller, BadCommandsHaveDefinedResults) {
     EXPECT_LE(c.q()[i], model.dof(i).upper);
   }
 }
+
+
+std::string model_id(const testing::TestParamInfo<wbm_test::ShippedModel>& info) { return info.param.id; }
+
+INSTANTIATE_TEST_SUITE_P(Models, EveryModel, testing::ValuesIn(wbm_test::shipped_models()), model_id);
 
 }  // namespace
