@@ -1,0 +1,95 @@
+#!/usr/bin/env bash
+# Runs wbm's per-model correctness tests on your robot: the tests every shipped model passes.
+#
+#   scripts/check_model.sh ROBOT.urdf --hands LEFT,RIGHT [--head FRAME] [--legs A,B] [--root LINK]
+#                          [--root-height H] [--default-limits] [--drop-legs] [--fixed-base]
+#                          [--build-dir DIR]
+#
+#   kinematics  every Jacobian (frames, points, axes, centre of mass) against central
+#               differences of forward kinematics on random configurations; J q_dot against
+#               the derivative of FK along a path; the chains; named frames; the upright
+#               base; no allocation in FK and Jacobians; a reused Data equals a fresh one;
+#               export to URDF and import again gives the same frame poses
+#   KDL         poses and Jacobians of every frame against Orocos KDL on your URDF (mimic
+#               joints included), and on the whole tree exported with the virtual dofs
+#   solver      the hands' position and grasp-axis rows and the head's view-axis row: their
+#               Jacobians against finite differences, J J# = I at full rank, J N = 0,
+#               N N = N, frozen dofs exactly still (eqs. 6, 7); random controller runs
+#               (targets out of reach, rows and dofs switched, NaN targets) stay finite and
+#               within every position and speed limit
+#   controller  both hands converge to 0.1 mm and 0.1 deg on reachable targets, allocating
+#               nothing in the cycles
+#
+# The flags are those of scripts/bench.sh (the hands: a frame per arm, e.g. a palm or the
+# last wrist link; without --head no view axis; --fixed-base: the controller tests start
+# with the base upright and keep the nine virtual dofs frozen, as for a robot on a pedestal). Exit status 0 when every test passed, 1
+# when one failed, 2 for a bad flag, file or frame name. The test binaries are built in
+# $BUILD_DIR (default: build) if they are not up to date. The property tests run 10^4 cases
+# (shared among the models for the solver's); WBM_PROPERTY_CASES=N in the environment
+# changes that.
+set -euo pipefail
+caller_dir="$PWD"
+cd "$(dirname "$0")/.."
+
+build_dir="${BUILD_DIR:-build}"
+urdf=""
+env_vars=()
+
+usage() {  # to stdout when asked for, to stderr after a bad flag
+  local text
+  text=$(awk 'NR > 1 && /^#/ { sub(/^# ?/, ""); print; next } NR > 1 { exit }' "$0")
+  if [[ "${1:-0}" -eq 0 ]]; then echo "$text"; else echo "$text" >&2; fi
+  exit "${1:-0}"
+}
+need_value() { [[ $# -ge 2 && -n "$2" && "$2" != --* ]] || { echo "check_model.sh: $1 needs a value" >&2; exit 2; }; }
+
+while [[ $# -gt 0 ]]; do
+  case "$1" in
+    -h|--help) usage 0 ;;
+    --hands) need_value "$@"; env_vars+=("WBM_TEST_HANDS=$2"); shift ;;
+    --head) need_value "$@"; env_vars+=("WBM_TEST_HEAD=$2"); shift ;;
+    --legs) need_value "$@"; env_vars+=("WBM_TEST_LEGS=$2"); shift ;;
+    --root) need_value "$@"; env_vars+=("WBM_TEST_ROOT=$2"); shift ;;
+    --root-height) need_value "$@"; env_vars+=("WBM_TEST_ROOT_HEIGHT=$2"); shift ;;
+    --default-limits) env_vars+=("WBM_TEST_DEFAULT_LIMITS=1") ;;
+    --drop-legs) env_vars+=("WBM_TEST_DROP_LEGS=1") ;;
+    --fixed-base) env_vars+=("WBM_TEST_FIXED_BASE=1") ;;
+    --build-dir) need_value "$@"; build_dir="$2"; shift ;;
+    -*) echo "check_model.sh: unknown option $1" >&2; usage 2 ;;
+    *)
+      if [[ -n "$urdf" ]]; then echo "check_model.sh: one URDF only" >&2; exit 2; fi
+      urdf="$1" ;;
+  esac
+  shift
+done
+
+[[ -n "$urdf" ]] || { echo "check_model.sh: a URDF file is required (see --help)" >&2; exit 2; }
+[[ "$urdf" == /* ]] || urdf="$caller_dir/$urdf"
+[[ -f "$urdf" ]] || { echo "check_model.sh: no such file: $urdf" >&2; exit 2; }
+printf '%s\n' "${env_vars[@]}" | grep -q '^WBM_TEST_HANDS=' ||
+  { echo "check_model.sh: --hands LEFT,RIGHT is required (two frames, one per arm; scripts/bench.sh ROBOT.urdf lists the ends of the robot's arms)" >&2; exit 2; }
+[[ "$build_dir" == /* ]] || build_dir="$PWD/$build_dir"
+
+binaries=(test_kinematics test_kdl test_solver test_controller)
+if [[ ! -f "$build_dir/CMakeCache.txt" ]]; then
+  cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release >/dev/null
+fi
+echo "check_model: building ${binaries[*]} in $build_dir" >&2
+cmake --build "$build_dir" --target "${binaries[@]}" -j"$(nproc)" >/dev/null
+
+out=$(mktemp -d)
+trap 'rm -rf "$out"' EXIT
+status=0
+for b in "${binaries[@]}"; do
+  echo "check_model: ${b#test_} ..." >&2
+  # Only the tests on the user's robot: their names end in /user.
+  set +e
+  env "WBM_TEST_URDF=$urdf" "${env_vars[@]}" "$build_dir/tests/$b" --gtest_filter='*/user' --gtest_brief=1 \
+    --gtest_output="json:$out/$b" | grep -v '^Running main()'
+  rc=${PIPESTATUS[0]}
+  set -e
+  if [[ $rc -eq 2 && ! -f "$out/$b.json" ]]; then exit 2; fi  # the model or a flag: said on stderr
+  [[ $rc -eq 0 ]] || status=1
+done
+python3 tests/check_model_summary.py "$urdf" "${binaries[@]/#/$out/}" || status=1
+exit $status

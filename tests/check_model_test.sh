@@ -1,0 +1,54 @@
+#!/usr/bin/env bash
+# CTest check_model_user_urdf: scripts/check_model.sh as a user runs it, on a URDF that is
+# not at a shipped path (NAO copied under a directory with a space), and its failure paths.
+#   check_model_test.sh BUILD_DIR WORK_DIR
+set -euo pipefail
+build_dir="$1"
+work="$2"
+rm -rf "$work"
+mkdir -p "$work/my robot"
+cp models/third_party/nao/nao.urdf "$work/my robot/nao.urdf"
+fail() { echo "check_model_test: $*" >&2; exit 1; }
+
+# 1. The whole set on the copied robot passes, every group ran, the summary counts them.
+scripts/check_model.sh "$work/my robot/nao.urdf" --hands l_gripper,r_gripper --head gaze --legs LPelvis,RPelvis \
+  --build-dir "$build_dir" >"$work/out.txt" 2>"$work/err.txt" || { cat "$work/out.txt" "$work/err.txt"; fail "exit $?"; }
+for name in Kinematics.JacobiansMatchFiniteDifferences/user Kinematics.JacobianTimesVelocityMatchesDirectionalDerivative/user \
+  KdlComparison.PosesAndJacobiansMatchKdl/user KdlWholeTree.ExportWithVirtualDofsMatchesKdl/user \
+  ExportRoundTrip.SameFramePosesAfterExportAndImport/user \
+  EveryModel.PseudoInverseAndNullSpaceIdentitiesWithTheHandAndViewRows/user \
+  EveryModel.RandomControllerRunsKeepLimits/user EveryModel.ConvergesToReachableHandTargetsWithoutAllocating/user; do
+  grep -q "^  passed  $name " "$work/out.txt" || { cat "$work/out.txt"; fail "no passed line for $name"; }
+done
+grep -Eq '^(1[6-9]|[2-9][0-9]) passed, [0-9]+ skipped, 0 failed$' "$work/out.txt" || { cat "$work/out.txt"; fail "summary"; }
+
+# 2. A misspelt frame: exit 2, the flag and the closest name, nothing on stdout.
+set +e
+scripts/check_model.sh "$work/my robot/nao.urdf" --hands l_griper,r_gripper --build-dir "$build_dir" \
+  >"$work/out2.txt" 2>"$work/err2.txt"
+rc=$?
+set -e
+[[ $rc -eq 2 ]] || fail "misspelt hand: exit $rc, expected 2"
+grep -q "^error: --hands (WBM_TEST_HANDS): .*no frame named 'l_griper' (did you mean 'l_gripper'?)" "$work/err2.txt" ||
+  { cat "$work/err2.txt"; fail "misspelt hand: message"; }
+[[ ! -s "$work/out2.txt" ]] || { cat "$work/out2.txt"; fail "misspelt hand: output on stdout"; }
+
+# 3. The summary fails a report with a failed test, and one in which no test ran.
+cat >"$work/failed.json" <<'EOF'
+{"testsuites": [{"name": "Models/Kinematics", "testsuite": [
+  {"name": "JacobiansMatchFiniteDifferences/user", "result": "COMPLETED", "time": "0.1s",
+   "failures": [{"failure": "column 3: analytic 1 vs finite difference 2"}]},
+  {"name": "NamedFramesExist/user", "result": "COMPLETED", "time": "0s"}]}]}
+EOF
+echo '{"testsuites": []}' >"$work/empty.json"
+for report in failed empty; do
+  set +e
+  python3 tests/check_model_summary.py robot.urdf "$work/$report.json" >"$work/$report.txt" 2>&1
+  rc=$?
+  set -e
+  [[ $rc -eq 1 ]] || { cat "$work/$report.txt"; fail "summary of the $report report: exit $rc, expected 1"; }
+done
+grep -q "^  FAILED  Kinematics.JacobiansMatchFiniteDifferences/user " "$work/failed.txt" &&
+  grep -q "^1 passed, 0 skipped, 1 failed$" "$work/failed.txt" || { cat "$work/failed.txt"; fail "failed report: lines"; }
+grep -q "no test ran" "$work/empty.txt" || { cat "$work/empty.txt"; fail "empty report: message"; }
+echo "check_model_test: passed"
