@@ -466,7 +466,10 @@ void print_budget(const TableReporter& rep, const FixtureSpec& f) {
                 kdl.p50_us / cycle.p50_us);
   std::printf(".\n  On a shared or unpinned machine the p99 values move by tens of percent; pin the run "
               "(taskset -c 1) and see bench/README.md. In a real-time loop each cycle starts cold and the "
-              "machine adds its wake-up latency: scripts/bench.sh --loop 10 with the same flags measures both.\n");
+              "machine adds its wake-up latency: scripts/bench.sh --loop 10 with the same flags measures both.\n"
+              "  Whether wbm computes your robot right (Jacobians against finite differences and KDL, the "
+              "solver's identities, limits): scripts/check_model.sh with the same URDF and --hands/--head/"
+              "--legs/--root flags.\n");
 }
 
 /// The periodic loop on each fixture in turn, wbm's cycle and then KDL's wdls cycle on the
