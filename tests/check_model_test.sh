@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # CTest check_model_user_urdf: scripts/check_model.sh as a user runs it, on a URDF that is
-# not at a shipped path (NAO copied under a directory with a space), and its failure paths.
+# not at a shipped path (NAO copied under a directory with a space), on a massless robot with
+# a fixed base, and its failure paths.
 #   check_model_test.sh BUILD_DIR WORK_DIR
 set -euo pipefail
 build_dir="$1"
@@ -22,7 +23,17 @@ for name in Kinematics.JacobiansMatchFiniteDifferences/user Kinematics.JacobianT
 done
 grep -Eq '^(1[6-9]|[2-9][0-9]) passed, [0-9]+ skipped, 0 failed$' "$work/out.txt" || { cat "$work/out.txt"; fail "summary"; }
 
-# 2. A misspelt frame: exit 2, the flag and the closest name, nothing on stdout.
+# 2. A robot on a fixed base whose URDF has no masses (no centre of mass to check).
+python3 - "$work/massless.urdf" <<'PY'
+import re, sys
+text = open("models/dual_arm/dual_arm.urdf").read()
+open(sys.argv[1], "w").write(re.sub(r"<inertial>.*?</inertial>", "", text, flags=re.S))
+PY
+scripts/check_model.sh "$work/massless.urdf" --hands left_tool,right_tool --fixed-base --build-dir "$build_dir" \
+  >"$work/out_massless.txt" 2>&1 || { cat "$work/out_massless.txt"; fail "massless fixed-base robot: exit $?"; }
+grep -Eq '^1[6-9] passed, [0-9]+ skipped, 0 failed$' "$work/out_massless.txt" || { cat "$work/out_massless.txt"; fail "massless summary"; }
+
+# 3. A misspelt frame: exit 2, the flag and the closest name, nothing on stdout.
 set +e
 scripts/check_model.sh "$work/my robot/nao.urdf" --hands l_griper,r_gripper --build-dir "$build_dir" \
   >"$work/out2.txt" 2>"$work/err2.txt"
@@ -33,7 +44,7 @@ grep -q "^error: --hands (WBM_TEST_HANDS): .*no frame named 'l_griper' (did you 
   { cat "$work/err2.txt"; fail "misspelt hand: message"; }
 [[ ! -s "$work/out2.txt" ]] || { cat "$work/out2.txt"; fail "misspelt hand: output on stdout"; }
 
-# 3. The summary fails a report with a failed test, and one in which no test ran.
+# 4. The summary fails a report with a failed test, and one in which no test ran.
 cat >"$work/failed.json" <<'EOF'
 {"testsuites": [{"name": "Models/Kinematics", "testsuite": [
   {"name": "JacobiansMatchFiniteDifferences/user", "result": "COMPLETED", "time": "0.1s",

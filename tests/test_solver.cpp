@@ -361,12 +361,15 @@ TEST_P(EveryModel, TaskElementJacobiansMatchFiniteDifferencesOfTheirValues) {
   const int n = model.num_dofs();
   std::vector<std::unique_ptr<TaskElement>> elements;
   elements.push_back(std::make_unique<PositionTask>(model, "p", entry.left_hand, "heel"));
-  elements.push_back(std::make_unique<CenterOfMassTask>(model, "c", "heel"));
-  elements.push_back(std::make_unique<CenterOfMassTask>(model, "cw"));
+  if (model.total_mass() > 0.0) {  // a URDF without masses has no centre of mass
+    elements.push_back(std::make_unique<CenterOfMassTask>(model, "c", "heel"));
+    elements.push_back(std::make_unique<CenterOfMassTask>(model, "cw"));
+  }
   elements.push_back(std::make_unique<AttitudeTask>(model, "a", entry.right_hand,
                                                     model.body(model.virtual_dofs().upper_body).name));
-  elements.push_back(std::make_unique<JointTask>(
-      model, "j", std::vector<std::string>{model.dof(9).name, model.dof(n - 1).name}));
+  std::vector<std::string> joints{model.dof(9).name};
+  if (n - 1 > 9) joints.push_back(model.dof(n - 1).name);
+  elements.push_back(std::make_unique<JointTask>(model, "j", joints));
   std::mt19937_64 rng(31);
   auto value_at = [&](TaskElement& e, const VectorXd& q) {
     forward_kinematics(model, data, q);
