@@ -90,8 +90,12 @@ ShippedModel model_from_environment() {
   try {
     const wbm::Model model = m.load();
     what = "--hands (WBM_TEST_HANDS): ";
-    model.frame_index(m.left_hand);
-    model.frame_index(m.right_hand);
+    for (const std::string& hand : {m.left_hand, m.right_hand}) {
+      bool moved = false;  // by a joint of the robot, not only by the virtual dofs
+      for (const int b : model.moving_bodies(model.frame(model.frame_index(hand)).body))
+        moved = moved || model.dof(model.body(b).dof).role == wbm::DofRole::kJoint;
+      if (!moved) environment_error(what + "no joint of the robot moves frame '" + hand + "'");
+    }
     what = "--head (WBM_TEST_HEAD): ";
     if (!m.head.empty()) model.frame_index(m.head);
   } catch (const std::exception& e) {
