@@ -43,6 +43,13 @@ set -e
 grep -q "^error: --hands (WBM_TEST_HANDS): .*no frame named 'l_griper' (did you mean 'l_gripper'?)" "$work/err2.txt" ||
   { cat "$work/err2.txt"; fail "misspelt hand: message"; }
 [[ ! -s "$work/out2.txt" ]] || { cat "$work/out2.txt"; fail "misspelt hand: output on stdout"; }
+# ... and a hand that no joint moves (a frame on the base).
+set +e
+scripts/check_model.sh "$work/massless.urdf" --hands left_tool,world --build-dir "$build_dir" >/dev/null 2>"$work/err3.txt"
+rc=$?
+set -e
+[[ $rc -eq 2 ]] && grep -q "^error: --hands (WBM_TEST_HANDS): no joint of the robot moves frame 'world'" "$work/err3.txt" ||
+  { cat "$work/err3.txt"; fail "unmoved hand: exit $rc"; }
 
 # 4. The summary fails a report with a failed test, and one in which no test ran.
 cat >"$work/failed.json" <<'EOF'
