@@ -26,8 +26,9 @@ ShippedModel urdf(std::string id, const std::string& relative, std::vector<std::
   return m;
 }
 
-/// The list is built at static initialisation, before gtest runs: a bad variable ends the
-/// process with the script's flag, the variable, what was expected and exit status 2.
+/// The list is built before any test runs (when gtest expands the parameterised suites): a
+/// bad variable ends the process with the script's flag, the variable, what was expected
+/// and exit status 2.
 [[noreturn]] void environment_error(const std::string& message) {
   std::cerr << "error: " << message << "\n";
   std::exit(2);

@@ -2,7 +2,8 @@
 /// @file
 /// The robot models shipped with wbm, with the import options they need: the built-in
 /// paper model, every URDF under models/third_party/ and wbm's own dual-arm robot
-/// (models/dual_arm/). Shared by tests and benchmarks.
+/// (models/dual_arm/); and a user's robot named in the environment (scripts/check_model.sh).
+/// Shared by tests and benchmarks.
 
 #include <optional>
 #include <ostream>

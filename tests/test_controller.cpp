@@ -79,8 +79,9 @@ TEST(Controller, CycleAllocatesNothing) {
   }
 }
 
-/// Targets from a random reachable configuration near home; start at home; converge to
-/// 0.1 mm and 0.1 deg, allocating nothing in the cycles.
+/// Targets from a random reachable configuration near home; start at home (the base upright
+/// and frozen if it is fixed); converge to 0.1 mm and 0.1 deg, allocating nothing in the
+/// cycles.
 void converge(const wbm_test::ShippedModel& entry, unsigned seed, int targets) {
   const Model model = entry.load();
   Data data(model);
