@@ -94,8 +94,12 @@ run_loop() {
 
 bin="$build_dir/bench/bench_wbm"
 if [[ ! -x "$bin" ]]; then
-  if [[ ! -f "$build_dir/CMakeCache.txt" ]]; then
-    cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release
+  if [[ ! -f "$build_dir/CMakeCache.txt" && "$build_dir" == build ]]; then
+    # A fresh checkout: what scripts/test.sh does first (Debian packages, report viewer, build).
+    echo "bench.sh: no build yet; running scripts/setup.sh" >&2
+    scripts/setup.sh >&2
+  elif [[ ! -f "$build_dir/CMakeCache.txt" ]]; then  # the benchmark only: no command-line tool
+    cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release -DWBM_BUILD_APPS=OFF -DWBM_BUILD_TESTS=OFF >/dev/null
   fi
   cmake --build "$build_dir" --target bench_wbm
 fi

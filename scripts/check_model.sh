@@ -72,7 +72,13 @@ printf '%s\n' "${env_vars[@]}" | grep -q '^WBM_TEST_HANDS=' ||
 
 binaries=(test_kinematics test_kdl test_solver test_controller)
 if [[ ! -f "$build_dir/CMakeCache.txt" ]]; then
-  cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release >/dev/null
+  if [[ "$build_dir" == "$PWD/build" ]]; then
+    # A fresh checkout: what scripts/test.sh does first (Debian packages, report viewer, build).
+    echo "check_model: no build yet; running scripts/setup.sh" >&2
+    scripts/setup.sh >&2
+  else  # the tests only: no command-line tool (it needs the report viewer built by npm)
+    cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release -DWBM_BUILD_APPS=OFF -DWBM_BUILD_BENCHMARKS=OFF >/dev/null
+  fi
 fi
 echo "check_model: building ${binaries[*]} in $build_dir" >&2
 cmake --build "$build_dir" --target "${binaries[@]}" -j"$(nproc)" >/dev/null
