@@ -696,6 +696,27 @@ TEST(ReRooting, RootHeightComesFromTheLegsAlsoWhenTheyHangBelowReversedJoints) {
 // ---------------------------------------------------------------------------------------
 // URDF export round trip.
 
+/// Every frame of `original` exists in `back` (same name) and has the same pose, to 1e-9,
+/// on `cases` random configurations (the same q: the dofs are in the same order).
+void expect_same_frame_poses(const Model& original, const Model& back, unsigned seed, int cases) {
+  std::vector<std::pair<int, int>> frames;
+  for (int f = 0; f < original.num_frames(); ++f) {
+    const int g = back.find_frame(original.frame(f).name);
+    EXPECT_GE(g, 0) << "frame " << original.frame(f).name << " lost in the round trip";
+    if (g >= 0) frames.emplace_back(f, g);
+  }
+  Data da(original), db(back);
+  std::mt19937_64 rng(seed);
+  for (int c = 0; c < cases; ++c) {
+    const Eigen::VectorXd q = wbm_test::random_configuration(original, rng);
+    wbm::forward_kinematics(original, da, q);
+    wbm::forward_kinematics(back, db, q);
+    for (const auto& [f, g] : frames)
+      ASSERT_LT(wbm_test::transform_distance(wbm::frame_pose(original, da, f), wbm::frame_pose(back, db, g)), 1e-9)
+          << "frame " << original.frame(f).name << "\n  q = " << wbm_test::describe_configuration(original, q);
+  }
+}
+
 TEST(Export, PaperModelRoundTrip) {
   const Model original = wbm::make_paper_model();
   const std::string xml = wbm::export_urdf(original);
@@ -718,22 +739,8 @@ TEST(Export, PaperModelRoundTrip) {
   }
   EXPECT_NEAR(back.total_mass(), original.total_mass(), 1e-9);
 
-  std::vector<std::pair<int, int>> frames;
-  for (int f = 0; f < original.num_frames(); ++f) {
-    const int g = back.find_frame(original.frame(f).name);
-    EXPECT_GE(g, 0) << "frame " << original.frame(f).name << " lost in the round trip";
-    if (g >= 0) frames.emplace_back(f, g);
-  }
+  expect_same_frame_poses(original, back, 3, 200);
   Data da(original), db(back);
-  std::mt19937_64 rng(3);
-  for (int c = 0; c < 200; ++c) {
-    const Eigen::VectorXd q = wbm_test::random_configuration(original, rng);
-    wbm::forward_kinematics(original, da, q);
-    wbm::forward_kinematics(back, db, q);
-    for (const auto& [f, g] : frames)
-      ASSERT_LT(wbm_test::transform_distance(wbm::frame_pose(original, da, f), wbm::frame_pose(back, db, g)), 1e-9)
-          << "frame " << original.frame(f).name << "\n  q = " << wbm_test::describe_configuration(original, q);
-  }
   // The heel mass is welded at the home pose: the centre of mass agrees there.
   wbm::forward_kinematics(original, da, original.home());
   wbm::forward_kinematics(back, db, original.home());
@@ -752,19 +759,7 @@ TEST_P(ExportRoundTrip, SameFramePosesAfterExportAndImport) {
   const Model back = wbm::parse_urdf(wbm::export_urdf(original), options, entry.id + "_export.urdf");
   ASSERT_EQ(back.num_dofs(), original.num_dofs());
   EXPECT_NEAR(back.total_mass(), original.total_mass(), 1e-9);
-  Data da(original), db(back);
-  std::mt19937_64 rng(5);
-  for (int c = 0; c < 20; ++c) {
-    const Eigen::VectorXd q = wbm_test::random_configuration(original, rng);
-    wbm::forward_kinematics(original, da, q);
-    wbm::forward_kinematics(back, db, q);
-    for (int f = 0; f < original.num_frames(); ++f) {
-      const int g = back.find_frame(original.frame(f).name);
-      ASSERT_GE(g, 0) << original.frame(f).name;
-      ASSERT_LT(wbm_test::transform_distance(wbm::frame_pose(original, da, f), wbm::frame_pose(back, db, g)), 1e-9)
-          << "frame " << original.frame(f).name;
-    }
-  }
+  expect_same_frame_poses(original, back, 5, 20);
 }
 
 INSTANTIATE_TEST_SUITE_P(Urdfs, ExportRoundTrip, testing::ValuesIn(wbm_test::shipped_urdf_models()), case_name);
