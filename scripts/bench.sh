@@ -31,6 +31,7 @@
 #
 # The binary is taken from $BUILD_DIR (default: build) and built there if it is missing.
 set -euo pipefail
+source "$(dirname "$0")/lib/flags.sh"
 caller_dir="$PWD"
 cd "$(dirname "$0")/.."
 
@@ -43,30 +44,26 @@ loop=()
 plot_dir=""
 extra=()
 
-usage() { awk 'NR > 1 && /^#/ { sub(/^# ?/, ""); print; next } NR > 1 { exit }' "$0"; exit "${1:-0}"; }
-
 while [[ $# -gt 0 ]]; do
+  model_flag "$@"
+  if [[ $model_shift -gt 0 ]]; then  # bench_wbm's --wbm_hands=..., --wbm_drop_legs, ...
+    own+=("--wbm_${model_key}${model_value:+=$model_value}")
+    shift "$model_shift"
+    continue
+  fi
   case "$1" in
     -h|--help) usage 0 ;;
     --short) short=1 ;;
     --scaling) mode="scaling" ;;
     --instructions) mode="instructions" ;;
-    --build-dir) build_dir="$2"; shift ;;
-    --root) own+=("--wbm_root=$2"); shift ;;
-    --legs) own+=("--wbm_legs=$2"); shift ;;
-    --hands) own+=("--wbm_hands=$2"); shift ;;
-    --head) own+=("--wbm_head=$2"); shift ;;
+    --build-dir) need_value "$@"; build_dir="$2"; shift ;;
     --com) own+=("--wbm_com") ;;
-    --posture) own+=("--wbm_posture=$2"); shift ;;
-    --root-height) own+=("--wbm_root_height=$2"); shift ;;
-    --default-limits) own+=("--wbm_default_limits") ;;
-    --drop-legs) own+=("--wbm_drop_legs") ;;
-    --fixed-base) own+=("--wbm_fixed_base") ;;
-    --loop) loop+=("--wbm_loop=$2"); shift ;;
-    --rate) loop+=("--wbm_rate=$2"); shift ;;
-    --priority) loop+=("--wbm_priority=$2"); shift ;;
+    --posture) need_value "$@"; own+=("--wbm_posture=$2"); shift ;;
+    --loop) need_value "$@"; loop+=("--wbm_loop=$2"); shift ;;
+    --rate) need_value "$@"; loop+=("--wbm_rate=$2"); shift ;;
+    --priority) need_value "$@"; loop+=("--wbm_priority=$2"); shift ;;
     --spin) loop+=("--wbm_spin") ;;
-    --plot) plot_dir="$2"; shift ;;
+    --plot) need_value "$@"; plot_dir="$2"; shift ;;
     --) shift; extra+=("$@"); break ;;
     -*) echo "bench.sh: unknown option $1" >&2; usage 2 ;;
     *)

@@ -28,6 +28,7 @@
 # (shared among the models for the solver's); WBM_PROPERTY_CASES=N in the environment
 # changes that.
 set -euo pipefail
+source "$(dirname "$0")/lib/flags.sh"
 caller_dir="$PWD"
 cd "$(dirname "$0")/.."
 
@@ -35,25 +36,15 @@ build_dir="${BUILD_DIR:-build}"
 urdf=""
 env_vars=()
 
-usage() {  # to stdout when asked for, to stderr after a bad flag
-  local text
-  text=$(awk 'NR > 1 && /^#/ { sub(/^# ?/, ""); print; next } NR > 1 { exit }' "$0")
-  if [[ "${1:-0}" -eq 0 ]]; then echo "$text"; else echo "$text" >&2; fi
-  exit "${1:-0}"
-}
-need_value() { [[ $# -ge 2 && -n "$2" && "$2" != --* ]] || { echo "check_model.sh: $1 needs a value" >&2; exit 2; }; }
-
 while [[ $# -gt 0 ]]; do
+  model_flag "$@"
+  if [[ $model_shift -gt 0 ]]; then  # WBM_TEST_HANDS=..., WBM_TEST_DROP_LEGS=1, ...
+    env_vars+=("WBM_TEST_${model_key^^}=${model_value:-1}")
+    shift "$model_shift"
+    continue
+  fi
   case "$1" in
     -h|--help) usage 0 ;;
-    --hands) need_value "$@"; env_vars+=("WBM_TEST_HANDS=$2"); shift ;;
-    --head) need_value "$@"; env_vars+=("WBM_TEST_HEAD=$2"); shift ;;
-    --legs) need_value "$@"; env_vars+=("WBM_TEST_LEGS=$2"); shift ;;
-    --root) need_value "$@"; env_vars+=("WBM_TEST_ROOT=$2"); shift ;;
-    --root-height) need_value "$@"; env_vars+=("WBM_TEST_ROOT_HEIGHT=$2"); shift ;;
-    --default-limits) env_vars+=("WBM_TEST_DEFAULT_LIMITS=1") ;;
-    --drop-legs) env_vars+=("WBM_TEST_DROP_LEGS=1") ;;
-    --fixed-base) env_vars+=("WBM_TEST_FIXED_BASE=1") ;;
     --build-dir) need_value "$@"; build_dir="$2"; shift ;;
     -*) echo "check_model.sh: unknown option $1" >&2; usage 2 ;;
     *)

@@ -51,6 +51,10 @@ set -e
 [[ $rc -eq 2 ]] && grep -q "^error: --hands (WBM_TEST_HANDS): no joint of the robot moves frame 'world'" "$work/err3.txt" ||
   { cat "$work/err3.txt"; fail "unmoved hand: exit $rc"; }
 
+# ... and a flag without its value (the shared flag parsing of scripts/lib/flags.sh).
+tests/cli_expect_error.sh scripts/check_model.sh "check_model.sh: --hands needs a value" \
+  "$work/my robot/nao.urdf" --hands --head gaze --build-dir "$build_dir" || fail "--hands without a value"
+
 # 4. The summary fails a report with a failed test, and one in which no test ran.
 cat >"$work/failed.json" <<'EOF'
 {"testsuites": [{"name": "Models/Kinematics", "testsuite": [
