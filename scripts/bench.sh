@@ -31,9 +31,7 @@
 #
 # The binary is taken from $BUILD_DIR (default: build) and built there if it is missing.
 set -euo pipefail
-source "$(dirname "$0")/lib/flags.sh"
-caller_dir="$PWD"
-cd "$(dirname "$0")/.."
+source "$(dirname "$0")/lib/flags.sh"  # now in the repository's root
 
 build_dir="${BUILD_DIR:-build}"
 urdf=""
@@ -66,16 +64,14 @@ while [[ $# -gt 0 ]]; do
     --plot) need_value "$@"; plot_dir="$2"; shift ;;
     --) shift; extra+=("$@"); break ;;
     -*) echo "bench.sh: unknown option $1" >&2; usage 2 ;;
-    *)
-      if [[ -n "$urdf" ]]; then echo "bench.sh: one URDF only" >&2; exit 2; fi
-      urdf="$1" ;;
+    *) set_urdf "$1" ;;
   esac
   shift
 done
 
 if [[ ${#loop[@]} -gt 0 && "$mode" != "fixtures" ]]; then echo "bench.sh: --loop runs on its own (not with --$mode)" >&2; exit 2; fi
 if [[ -n "$plot_dir" && ${#loop[@]} -eq 0 ]]; then echo "bench.sh: --plot DIR goes with --loop SECONDS" >&2; exit 2; fi
-[[ -z "$plot_dir" || "$plot_dir" == /* ]] || plot_dir="$caller_dir/$plot_dir"
+[[ -z "$plot_dir" ]] || plot_dir=$(caller_path "$plot_dir")
 
 # The periodic loop (bench_wbm's arguments), and with --plot its samples and histograms.
 run_loop() {
@@ -91,13 +87,7 @@ run_loop() {
 
 bin="$build_dir/bench/bench_wbm"
 if [[ ! -x "$bin" ]]; then
-  if [[ ! -f "$build_dir/CMakeCache.txt" && "$build_dir" == build ]]; then
-    # A fresh checkout: what scripts/test.sh does first (Debian packages, report viewer, build).
-    echo "bench.sh: no build yet; running scripts/setup.sh" >&2
-    scripts/setup.sh >&2
-  elif [[ ! -f "$build_dir/CMakeCache.txt" ]]; then  # the benchmark only: no command-line tool
-    cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release -DWBM_BUILD_APPS=OFF -DWBM_BUILD_TESTS=OFF >/dev/null
-  fi
+  configure_build "$build_dir" -DWBM_BUILD_TESTS=OFF
   cmake --build "$build_dir" --target bench_wbm
 fi
 
@@ -105,7 +95,7 @@ args=()
 [[ $short -eq 1 ]] && args+=(--benchmark_min_time=0.01)
 
 if [[ -n "$urdf" ]]; then
-  [[ "$urdf" == /* || -f "$urdf" ]] || urdf="$caller_dir/$urdf"  # relative to where it was called from
+  urdf=$(caller_path "$urdf")
   [[ -f "$urdf" ]] || { echo "bench.sh: no such file: $urdf" >&2; exit 2; }
   # Without --hands, bench_wbm says so and lists the ends of the robot's arms.
   printf '%s\n' "${own[@]}" | grep -q -- '--wbm_hands=' || exec "$bin" "--wbm_urdf=$urdf" "${own[@]}"

@@ -28,9 +28,7 @@
 # (shared among the models for the solver's); WBM_PROPERTY_CASES=N in the environment
 # changes that.
 set -euo pipefail
-source "$(dirname "$0")/lib/flags.sh"
-caller_dir="$PWD"
-cd "$(dirname "$0")/.."
+source "$(dirname "$0")/lib/flags.sh"  # now in the repository's root
 
 build_dir="${BUILD_DIR:-build}"
 urdf=""
@@ -47,30 +45,20 @@ while [[ $# -gt 0 ]]; do
     -h|--help) usage 0 ;;
     --build-dir) need_value "$@"; build_dir="$2"; shift ;;
     -*) echo "check_model.sh: unknown option $1" >&2; usage 2 ;;
-    *)
-      if [[ -n "$urdf" ]]; then echo "check_model.sh: one URDF only" >&2; exit 2; fi
-      urdf="$1" ;;
+    *) set_urdf "$1" ;;
   esac
   shift
 done
 
 [[ -n "$urdf" ]] || { echo "check_model.sh: a URDF file is required (see --help)" >&2; exit 2; }
-[[ "$urdf" == /* ]] || urdf="$caller_dir/$urdf"
+urdf=$(caller_path "$urdf")
 [[ -f "$urdf" ]] || { echo "check_model.sh: no such file: $urdf" >&2; exit 2; }
 printf '%s\n' "${env_vars[@]}" | grep -q '^WBM_TEST_HANDS=' ||
   { echo "check_model.sh: --hands LEFT,RIGHT is required (two frames, one per arm; scripts/bench.sh ROBOT.urdf lists the ends of the robot's arms)" >&2; exit 2; }
 [[ "$build_dir" == /* ]] || build_dir="$PWD/$build_dir"
 
 binaries=(test_kinematics test_kdl test_solver test_controller)
-if [[ ! -f "$build_dir/CMakeCache.txt" ]]; then
-  if [[ "$build_dir" == "$PWD/build" ]]; then
-    # A fresh checkout: what scripts/test.sh does first (Debian packages, report viewer, build).
-    echo "check_model: no build yet; running scripts/setup.sh" >&2
-    scripts/setup.sh >&2
-  else  # the tests only: no command-line tool (it needs the report viewer built by npm)
-    cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release -DWBM_BUILD_APPS=OFF -DWBM_BUILD_BENCHMARKS=OFF >/dev/null
-  fi
-fi
+configure_build "$build_dir" -DWBM_BUILD_BENCHMARKS=OFF
 echo "check_model: building ${binaries[*]} in $build_dir" >&2
 cmake --build "$build_dir" --target "${binaries[@]}" -j"$(nproc)" >/dev/null
 

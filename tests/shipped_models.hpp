@@ -48,6 +48,12 @@ struct ShippedModel {
 
 /// gtest prints parameters with this (instead of a byte dump).
 inline void PrintTo(const ShippedModel& m, std::ostream* os) { *os << m.id; }
+/// Names the cases of a gtest suite over ShippedModel by the model's id (the last argument
+/// of INSTANTIATE_TEST_SUITE_P); "user" for the user's robot, which check_model.sh filters on.
+struct ModelIdName {
+  template <class ParamInfo>
+  std::string operator()(const ParamInfo& info) const { return info.param.id; }
+};
 
 /// All shipped models: the paper model first, then the URDFs; and last, if the environment
 /// names one (WBM_TEST_URDF, scripts/check_model.sh), the user's robot with id "user".

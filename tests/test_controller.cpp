@@ -129,9 +129,7 @@ TEST_P(EveryModel, ConvergesToReachableHandTargetsWithoutAllocating) {
   converge(entry, entry.id == "paper" ? 11 : 12, entry.id == "paper" ? 25 : 15);
 }
 
-std::string model_id(const testing::TestParamInfo<wbm_test::ShippedModel>& info) { return info.param.id; }
-
-INSTANTIATE_TEST_SUITE_P(Models, EveryModel, testing::ValuesIn(wbm_test::shipped_models()), model_id);
+INSTANTIATE_TEST_SUITE_P(Models, EveryModel, testing::ValuesIn(wbm_test::shipped_models()), wbm_test::ModelIdName());
 
 TEST(TrajectoryFilter, NoOvershootSpeedLimitContinuousVelocity) {
   std::mt19937_64 rng(17);

@@ -269,12 +269,10 @@ TEST_P(KdlWholeTree, ExportWithVirtualDofsMatchesKdl) {
 
 TEST(KdlWholeTreePaper, ExportWithVirtualDofsMatchesKdl) { compare_whole_tree_with_kdl("paper", wbm::make_paper_model()); }
 
-std::string case_name(const testing::TestParamInfo<ShippedModel>& param) { return param.param.id; }
-
-INSTANTIATE_TEST_SUITE_P(ShippedUrdfs, KdlComparison, testing::ValuesIn(wbm_test::shipped_urdf_models()), case_name);
+INSTANTIATE_TEST_SUITE_P(ShippedUrdfs, KdlComparison, testing::ValuesIn(wbm_test::shipped_urdf_models()), wbm_test::ModelIdName());
 // Re-rooted (KDL keeps the URDF's root: Jacobians compared relative to our root link) and
 // with dropped legs (KDL has their links).
-INSTANTIATE_TEST_SUITE_P(ImportVariants, KdlComparison, testing::ValuesIn(wbm_test::import_variants()), case_name);
-INSTANTIATE_TEST_SUITE_P(ShippedUrdfs, KdlWholeTree, testing::ValuesIn(wbm_test::shipped_urdf_models()), case_name);
+INSTANTIATE_TEST_SUITE_P(ImportVariants, KdlComparison, testing::ValuesIn(wbm_test::import_variants()), wbm_test::ModelIdName());
+INSTANTIATE_TEST_SUITE_P(ShippedUrdfs, KdlWholeTree, testing::ValuesIn(wbm_test::shipped_urdf_models()), wbm_test::ModelIdName());
 
 }  // namespace

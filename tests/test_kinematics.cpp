@@ -47,8 +47,6 @@ std::vector<ShippedModel> kinematic_cases() {
   return cases;
 }
 
-std::string case_name(const testing::TestParamInfo<ShippedModel>& info) { return info.param.id; }
-
 /// Deterministic seed per model id (std::hash is not portable across libraries).
 std::uint64_t seed_for(const std::string& id) {
   std::uint64_t h = 1469598103934665603ull;  // FNV-1a
@@ -365,7 +363,7 @@ TEST_P(Kinematics, ReusedDataAgreesWithAFreshOne) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Models, Kinematics, testing::ValuesIn(kinematic_cases()), case_name);
+INSTANTIATE_TEST_SUITE_P(Models, Kinematics, testing::ValuesIn(kinematic_cases()), wbm_test::ModelIdName());
 
 // The anchored sine and cosine of forward kinematics against the library: inside the 1/8
 // rad window (boundary included) within 2.5e-16 and the anchor stays; outside it and for a
@@ -762,7 +760,7 @@ TEST_P(ExportRoundTrip, SameFramePosesAfterExportAndImport) {
   expect_same_frame_poses(original, back, 5, 20);
 }
 
-INSTANTIATE_TEST_SUITE_P(Urdfs, ExportRoundTrip, testing::ValuesIn(wbm_test::shipped_urdf_models()), case_name);
+INSTANTIATE_TEST_SUITE_P(Urdfs, ExportRoundTrip, testing::ValuesIn(wbm_test::shipped_urdf_models()), wbm_test::ModelIdName());
 
 /// A model with a body welded to its parent (no dof): legal in a ModelBuilder model.
 Model welded_model() {

@@ -620,9 +620,6 @@ TEST(Controller, BadCommandsHaveDefinedResults) {
   }
 }
 
-
-std::string model_id(const testing::TestParamInfo<wbm_test::ShippedModel>& info) { return info.param.id; }
-
-INSTANTIATE_TEST_SUITE_P(Models, EveryModel, testing::ValuesIn(wbm_test::shipped_models()), model_id);
+INSTANTIATE_TEST_SUITE_P(Models, EveryModel, testing::ValuesIn(wbm_test::shipped_models()), wbm_test::ModelIdName());
 
 }  // namespace

@@ -1,8 +1,12 @@
-# Sourced by scripts/bench.sh and scripts/check_model.sh: their help text, and the flags that
-# describe a user's robot model, which both take with the same names and meanings.
+# Sourced by scripts/bench.sh and scripts/check_model.sh before they parse their arguments:
+# their help text, the flags that describe a user's robot model (both take them with the same
+# names and meanings), paths given relative to where the script was called, and the build
+# directory of a fresh checkout. Sourcing it changes into the repository's root.
 
 script_name="${0##*/}"
-script_file="$(realpath "$0")"  # before the script changes directory
+script_file="$(realpath "$0")"
+caller_dir="$(pwd -P)"  # physical, as the repository root after the cd below
+cd "$(dirname "$script_file")/.."
 
 # usage STATUS: the calling script's header comment, to stdout when asked for (STATUS 0), to
 # stderr after a bad flag; then exits with STATUS.
@@ -38,4 +42,33 @@ model_flag() {
   esac
   model_key="${1#--}"
   model_key="${model_key//-/_}"
+}
+
+# set_urdf ARG: the robot file, the one argument that is not a flag; a second exits 2.
+set_urdf() {
+  [[ -z "$urdf" ]] || { echo "$script_name: one URDF only" >&2; exit 2; }
+  urdf="$1"
+}
+
+# caller_path PATH: PATH as the caller meant it (relative to where the script was called);
+# unchanged if absolute or if the script was called from the repository's root.
+caller_path() {
+  if [[ "$1" == /* || "$caller_dir" == "$PWD" ]]; then echo "$1"; else echo "$caller_dir/$1"; fi
+}
+
+# configure_build DIR CMAKE_FLAG...: nothing if DIR is configured. On a fresh checkout (DIR
+# the default build directory) runs scripts/setup.sh, what scripts/test.sh does first
+# (Debian packages, the report viewer, the build); another DIR is configured as a Release
+# build with the given flags and without the command-line tool (it needs the report viewer
+# built by npm).
+configure_build() {
+  local dir="$1"
+  shift
+  [[ ! -f "$dir/CMakeCache.txt" ]] || return 0
+  if [[ "$(realpath -m "$dir")" == "$PWD/build" ]]; then
+    echo "$script_name: no build yet; running scripts/setup.sh" >&2
+    scripts/setup.sh >&2
+  else
+    cmake -S . -B "$dir" -DCMAKE_BUILD_TYPE=Release -DWBM_BUILD_APPS=OFF "$@" >/dev/null
+  fi
 }
