@@ -151,7 +151,7 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
   Controller& c = *run->controller;
   for (size_t i = 0; i < s.tasks.size(); ++i) {
     const ScenarioTask& t = s.tasks[i];
-    c.add_task(bound(s, t.line, "tasks[" + std::to_string(i) + "]", [&] { return make_element(model, t); }), t.filter);
+    bound(s, t.line, "tasks[" + std::to_string(i) + "]", [&] { return c.add_task(make_element(model, t), t.filter); });
     run->element_types.push_back(t.type);
   }
   if (s.criterion == "squared") c.set_criterion(std::make_unique<JointCenterCriterion>(model));
@@ -159,7 +159,8 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
   Eigen::VectorXd q0 = s.fixed_base ? upright_base_configuration(model, model.home()) : model.home();
   for (const auto& entry : s.initial)
     q0[bound(s, s.initial_line, "initial", [&] { return model.dof_index(entry.first); })] = entry.second;
-  c.reset(q0);
+  // A value of `initial` outside its dof's limits: reported at that line, as unknown names are.
+  bound(s, s.initial_line, "initial", [&] { c.reset(q0); return 0; });
   Command cmd = c.make_command();
   cmd.external_velocity.setZero(model.num_dofs());
   TaskStack& stack = c.tasks();

@@ -81,7 +81,11 @@ class Reader {
 
 FilterParameters read_filter(const Reader& r, const YAML::Node& node, const std::string& field, FilterParameters f) {
   r.only(node, field, {"bandwidth", "max_speed", "order"});
-  if (node["bandwidth"]) f.bandwidth = r.positive(node["bandwidth"], field + ".bandwidth");
+  if (node["bandwidth"]) {
+    f.bandwidth = r.number(node["bandwidth"], field + ".bandwidth");
+    if (f.bandwidth < TrajectoryFilter::kMinBandwidth)
+      r.fail(node["bandwidth"], field + ".bandwidth", "expected a number >= 0.001 [1/s] (a time constant of at most 1000 s)");
+  }
   if (node["max_speed"]) f.max_speed = r.positive(node["max_speed"], field + ".max_speed");
   if (node["order"]) {
     const double order = r.number(node["order"], field + ".order");

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <sstream>
 
 #include "wbm/errors.hpp"
 
@@ -85,8 +86,12 @@ double polynomial8(const double* c, double v) {
 
 TrajectoryFilter::TrajectoryFilter(TargetKind kind, int dim, const FilterParameters& parameters)
     : kind_(kind), parameters_(parameters) {
-  if (!(std::isfinite(parameters.bandwidth) && parameters.bandwidth > 0.0))
-    throw ConfigError("trajectory filter: bandwidth must be finite and > 0 [1/s]");
+  if (!(std::isfinite(parameters.bandwidth) && parameters.bandwidth >= kMinBandwidth)) {
+    std::ostringstream msg;
+    msg << "trajectory filter: bandwidth must be finite and >= " << kMinBandwidth << " [1/s], got "
+        << parameters.bandwidth;
+    throw ConfigError(msg.str());
+  }
   if (!(std::isfinite(parameters.max_speed) && parameters.max_speed > 0.0))
     throw ConfigError("trajectory filter: max_speed must be finite and > 0");
   if (parameters.order < 2 || parameters.order > 6) throw ConfigError("trajectory filter: order must be in [2, 6]");

@@ -309,6 +309,10 @@ TEST(Scenarios, BadFilesNameTheLineAndField) {
       {"name: x\ntasks:\n  - {name: a, type: position}\n", "bad.yaml:3: tasks[0].frame: missing"},
       {"name: x\ntasks:\n  - {name: a, type: position, frame: f, gain: -2}\n", "bad.yaml:3: tasks[0].gain: expected a number >= 0"},
       {"name: x\ntasks:\n  - {name: a, type: position, frame: f, filter: {order: 1}}\n", "bad.yaml:3: tasks[0].filter.order: expected an integer in [2, 6]"},
+      // A denormal bandwidth passed "> 0", and the filter's start from a moving value
+      // (x + lag * v / bandwidth) overflowed to NaN.
+      {"name: x\ntasks:\n  - {name: a, type: position, frame: f, filter: {bandwidth: 1e-320}}\n",
+       "bad.yaml:3: tasks[0].filter.bandwidth: expected a number >= 0.001 [1/s]"},
       {"name: x\ntasks:\n  - {name: a, type: position, frame: f}\n  - {name: a, type: axis, frame: f}\n", "bad.yaml:4: tasks[1].name: duplicate element name 'a'"},
       {"name: x\ntasks: [{name: a, type: position, frame: f}]\ntimeline:\n  - {targets: {a: [1, 2, 3]}}\n", "bad.yaml:4: timeline[0].t: missing"},
       {"name: x\nrobot: {builtin: asimo}\ntasks: [{name: a, type: position, frame: f}]\n", "bad.yaml:2: robot.builtin: expected 'paper'"},
@@ -369,6 +373,8 @@ TEST(Scenarios, UnknownNamesInTheTimelineAreReportedBeforeRunning) {
        "bad.yaml:2: frozen: model 'paper_asimo_like' has no dof named 'nope'"},
       {"name: x\ninitial: {nope: 0.1}\ntasks: [{name: a, type: position, frame: l_hand_ref}]\n",
        "bad.yaml:2: initial: model 'paper_asimo_like' has no dof named 'nope'"},
+      {"name: x\ninitial: {l_shoulder_pitch: 0.1, l_elbow: 5}\ntasks: [{name: a, type: position, frame: l_hand_ref}]\n",
+       "bad.yaml:2: initial: configuration value 5 of dof 'l_elbow' is outside [-2.4, 0]"},
       {"name: x\nfeet: {left_frame: nope, right_frame: r_hand}\ntasks: [{name: a, type: position, frame: l_hand_ref}]\n",
        "bad.yaml:2: feet: model 'paper_asimo_like' has no frame named 'nope'"},
       {"name: x\nrobot: {urdf: no_such.urdf}\ntasks: [{name: a, type: position, frame: l_hand_ref}]\n",

@@ -9,7 +9,7 @@
 namespace wbm {
 
 struct FilterParameters {
-  /// Corner frequency omega of every stage [1/s].
+  /// Corner frequency omega of every stage [1/s], at least TrajectoryFilter::kMinBandwidth.
   double bandwidth = 5.0;
   /// Speed limit of the output: [m/s] for positions, [rad/s] for axes and angles. For
   /// vector targets the limit applies to the Euclidean norm of the velocity.
@@ -30,7 +30,13 @@ struct FilterParameters {
 /// angles, max_speed is an angular speed.
 class TrajectoryFilter {
  public:
-  /// @throws ConfigError for bandwidth <= 0, max_speed <= 0, order < 2 or a bad size.
+  /// Smallest bandwidth accepted [1/s]: a time constant of at most 1000 s. The filter starts
+  /// from a moving value with its stages at x + (n - k) v / omega, which leaves every
+  /// workspace for smaller omega and overflows for tiny ones (the filter then emits NaN).
+  static constexpr double kMinBandwidth = 1e-3;
+
+  /// @throws ConfigError for bandwidth < kMinBandwidth or not finite, max_speed <= 0 or not
+  /// finite, order outside [2, 6] or a bad size.
   TrajectoryFilter(TargetKind kind, int dim, const FilterParameters& parameters);
 
   /// Starts from the actual value and velocity, so nothing jumps when an element is
