@@ -92,14 +92,21 @@ double distance(const std::string& type, const Eigen::Ref<const Eigen::VectorXd>
     return std::atan2(u.cross(v).norm(), u.dot(v));
   }
   const bool all = !rows.any();
-  double sum = 0.0, max = 0.0;
+  auto difference = [&](int i) {
+    return type == "attitude" ? std::remainder(a[i] - b[i], 2.0 * M_PI) : a[i] - b[i];
+  };
+  double max = 0.0;
   for (int i = 0; i < a.size(); ++i) {
     if (!all && !rows[i]) continue;
-    const double d = type == "attitude" ? std::remainder(a[i] - b[i], 2.0 * M_PI) : a[i] - b[i];
-    sum += d * d;
-    max = std::max(max, std::abs(d));
+    const double d = std::abs(difference(i));
+    if (!(d <= max)) max = std::isnan(max) ? max : d;  // NaN, once seen, stays
   }
-  return type == "joints" ? max : std::sqrt(sum);
+  if (type == "joints" || max == 0.0 || !std::isfinite(max)) return max;
+  // Scaled by the largest entry: a target 1e308 m away is that far, not an overflow to inf.
+  double sum = 0.0;
+  for (int i = 0; i < a.size(); ++i)
+    if (all || rows[i]) sum += (difference(i) / max) * (difference(i) / max);
+  return max * std::sqrt(sum);
 }
 
 void progress_bar(double t, double duration, bool done) {

@@ -400,6 +400,21 @@ TEST(Scenarios, UnknownNamesInTheTimelineAreReportedBeforeRunning) {
   }
 }
 
+TEST(Scenarios, ATargetFarOutOfReachHasAFiniteErrorAndMotion) {
+  // 1e308 m away: the squared distance overflowed and the error column read inf.
+  const Scenario s = parse_scenario(
+      "name: x\nduration: 0.2\nfrozen: [heel_x, heel_y, heel_yaw]\n"
+      "tasks: [{name: a, type: position, frame: l_hand_ref}, {name: j, type: joints, dofs: [l_elbow]}]\n"
+      "timeline:\n  - t: 0.05\n    activate: [a, j]\n    targets: {a: [1e308, 1e308, 0.8], j: [-1e308]}\n",
+      "far.yaml", ".");
+  const auto run = run_scenario(s);
+  const int last = run->num_cycles() - 1;
+  const int a = run->element("a"), j = run->element("j");
+  EXPECT_NEAR(run->error[last][a] / (std::sqrt(2.0) * 1e308), 1.0, 1e-12);
+  EXPECT_NEAR(run->error[last][j] / 1e308, 1.0, 1e-12);
+  for (int k = 0; k <= last; ++k) ASSERT_TRUE(run->q[k].allFinite() && run->error[k].allFinite()) << "cycle " << k;
+}
+
 TEST(Scenarios, CheckOnlyBuildsEverythingAndSimulatesNothing) {
   const Scenario s = parse_scenario(
       "name: x\nduration: 2\ntasks: [{name: a, type: position, frame: l_hand_ref}]\ntimeline:\n  - t: 0.5\n"
