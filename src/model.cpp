@@ -18,11 +18,26 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 
 std::string quoted(const std::string& s) { return "'" + s + "'"; }
 
+/// "(x, y, z)" for messages.
+std::string text(const Vector3& v) {
+  std::ostringstream out;
+  out << "(" << v.x() << ", " << v.y() << ", " << v.z() << ")";
+  return out.str();
+}
+
 void check_inertial(const std::string& what, const Inertial& in) {
-  if (!std::isfinite(in.mass) || in.mass < 0.0)
-    throw ModelError(what + ": mass must be finite and >= 0 kg, got " + std::to_string(in.mass));
+  if (!(in.mass >= 0.0 && in.mass <= kMaxMass)) {
+    std::ostringstream msg;
+    msg << what << ": mass must be in [0, " << kMaxMass << "] kg, got " << in.mass;
+    throw ModelError(msg.str());
+  }
   if (!in.com.allFinite() || !in.inertia.allFinite())
     throw ModelError(what + ": centre of mass and inertia must be finite");
+  if (in.com.lpNorm<Eigen::Infinity>() > kMaxLength) {
+    std::ostringstream msg;
+    msg << what << ": centre of mass " << text(in.com) << " m reaches beyond " << kMaxLength << " m";
+    throw ModelError(msg.str());
+  }
 }
 
 /// Up to 40 names after `what`, for the errors of a name lookup.
@@ -159,9 +174,21 @@ Model ModelBuilder::build() {
         msg << what << ": lower limit " << dof.lower << " is above upper limit " << dof.upper;
         throw ModelError(msg.str());
       }
+      if (dof.type == JointType::kPrismatic && std::max(-dof.lower, dof.upper) > kMaxLength) {
+        std::ostringstream msg;
+        msg << what << ": prismatic limits [" << dof.lower << ", " << dof.upper << "] m reach beyond " << kMaxLength
+            << " m";
+        throw ModelError(msg.str());
+      }
       if (!(dof.work_range > 0.0)) dof.work_range = dof.upper - dof.lower;
       if (!(dof.work_range > 0.0))
         throw ModelError(what + ": zero motion range (lower == upper); lock the joint instead");
+    }
+    if (!std::isfinite(dof.work_range)) {  // upper - lower overflowed, or set so
+      std::ostringstream msg;
+      msg << what << ": work range must be finite, got " << dof.work_range << " (limits [" << dof.lower << ", "
+          << dof.upper << "]; make a joint without limits continuous)";
+      throw ModelError(msg.str());
     }
     if (!std::isfinite(dof.max_speed) || dof.max_speed <= 0.0)
       throw ModelError(what + ": speed limit must be finite and > 0, got " + std::to_string(dof.max_speed));
@@ -178,7 +205,7 @@ Model ModelBuilder::build() {
       if (!std::isfinite(n) || n < 1e-12) throw ModelError(what + ": joint axis is zero");
       if (std::abs(n - 1.0) > kAxisTolerance) {
         std::ostringstream msg;
-        msg << what << ": joint axis (" << body.axis.transpose() << ") is not a unit vector (norm " << n << ")";
+        msg << what << ": joint axis " << text(body.axis) << " is not a unit vector (norm " << n << ")";
         throw ModelError(msg.str());
       }
       body.axis /= n;
@@ -187,6 +214,11 @@ Model ModelBuilder::build() {
     }
     if (!body.X_PJ.R.allFinite() || !body.X_PJ.p.allFinite())
       throw ModelError(what + ": joint offset is not finite");
+    if (body.X_PJ.p.lpNorm<Eigen::Infinity>() > kMaxLength) {
+      std::ostringstream msg;
+      msg << what << ": joint offset " << text(body.X_PJ.p) << " m reaches beyond " << kMaxLength << " m";
+      throw ModelError(msg.str());
+    }
     if (!(body.X_PJ.R.transpose() * body.X_PJ.R).isIdentity(1e-6))
       throw ModelError(what + ": joint offset rotation is not orthonormal");
     check_inertial(what, body.inertial);
@@ -197,6 +229,8 @@ Model ModelBuilder::build() {
   for (const Frame& f : m.frames_) {
     if (!names.insert(f.name).second) throw ModelError("duplicate frame " + quoted(f.name));
     if (f.body < 0 || f.body >= nb) throw ModelError("frame " + quoted(f.name) + ": body index out of range");
+    if (!f.X_BF.R.allFinite() || !f.X_BF.p.allFinite() || f.X_BF.p.lpNorm<Eigen::Infinity>() > kMaxLength)
+      throw ModelError("frame " + quoted(f.name) + ": offset is not finite or reaches beyond 1e6 m");
   }
 
   m.axis_code_.assign(nb, 0);

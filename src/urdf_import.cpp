@@ -22,6 +22,20 @@ std::string quoted(const std::string& s) { return "'" + s + "'"; }
 /// Largest accepted |norm - 1| of a joint axis; accepted axes are normalised.
 constexpr double kAxisNormTolerance = 0.01;
 
+/// A revolute joint with both limits at least this far from zero [rad] is unlimited:
+/// sdformat and the URDFs converted from SDF write +-1e16 for "no limit", others 1e10 or
+/// the largest float. It is imported as continuous; kept as limits, its work range of
+/// 2e16 rad would give it all of the weighting matrix W (section IV.C).
+constexpr double kUnlimitedRevolute = 1e6;
+
+/// 0: both limits are angles; 1: one of them is beyond kUnlimitedRevolute; 2: both are
+/// (lower below -kUnlimitedRevolute, upper above +kUnlimitedRevolute).
+int unlimited_revolute(double lower, double upper) {
+  const bool low = lower <= -kUnlimitedRevolute, high = upper >= kUnlimitedRevolute;
+  if (low && high) return 2;
+  return (std::abs(lower) >= kUnlimitedRevolute || std::abs(upper) >= kUnlimitedRevolute) ? 1 : 0;
+}
+
 /// Where an element of the file is, for messages "FILE:LINE: ...".
 struct Located {
   std::string name;
@@ -101,7 +115,22 @@ class UrdfChecker {
     }
     if (values.size() != count)
       fail(e->Row(), what + ": <" + e->Value() + " " + attr + "> needs " + std::to_string(count) +
-                         " numbers, found " + std::to_string(values.size()));
+                         (count == 1 ? " number" : " numbers") + ", found " + std::to_string(values.size()));
+    return values;
+  }
+
+  /// numbers() whose magnitudes are at most `largest` (kMaxLength, kMaxMass), so that
+  /// nothing computed from them overflows.
+  std::vector<double> numbers_within(const TiXmlElement* e, const char* attr, size_t count, const std::string& what,
+                              double largest, const char* unit) const {
+    std::vector<double> values = numbers(e, attr, count, what);
+    for (const double v : values)
+      if (std::abs(v) > largest) {
+        std::ostringstream msg;
+        msg << what << ": <" << e->Value() << " " << attr << "> has " << v << ", beyond the " << largest << " "
+            << unit << " wbm accepts (a unit or exponent typo?)";
+        fail(e->Row(), msg.str());
+      }
     return values;
   }
 
@@ -115,14 +144,14 @@ class UrdfChecker {
     if (const TiXmlElement* inertial = e->FirstChildElement("inertial")) {
       const TiXmlElement* mass = inertial->FirstChildElement("mass");
       if (mass == nullptr) fail(inertial->Row(), what + ": <inertial> lacks <mass>");
-      const double m = numbers(mass, "value", 1, what)[0];
+      const double m = numbers_within(mass, "value", 1, what, kMaxMass, "kg")[0];
       if (m < 0.0) fail(mass->Row(), what + ": negative mass " + std::to_string(m) + " kg (expected >= 0)");
       if (const TiXmlElement* origin = inertial->FirstChildElement("origin")) check_origin(origin, what);
     }
   }
 
   void check_origin(const TiXmlElement* origin, const std::string& what) const {
-    if (origin->Attribute("xyz")) numbers(origin, "xyz", 3, what);
+    if (origin->Attribute("xyz")) numbers_within(origin, "xyz", 3, what, kMaxLength, "m");
     if (origin->Attribute("rpy")) numbers(origin, "rpy", 3, what);
   }
 
@@ -188,6 +217,17 @@ class UrdfChecker {
     }
     const double lower = limit->Attribute("lower") ? numbers(limit, "lower", 1, what)[0] : 0.0;
     const double upper = limit->Attribute("upper") ? numbers(limit, "upper", 1, what)[0] : 0.0;
+    if (j.type == "prismatic") {
+      numbers_within(limit, "lower", 1, what, kMaxLength, "m");
+      numbers_within(limit, "upper", 1, what, kMaxLength, "m");
+    }
+    if (j.type == "revolute" && unlimited_revolute(lower, upper) == 1) {
+      std::ostringstream msg;
+      msg << what << ": limits [" << lower << ", " << upper << "] rad: one side is unlimited (beyond "
+          << kUnlimitedRevolute << " rad), which wbm cannot represent; give both limits as angles, or both "
+          << "beyond +-" << kUnlimitedRevolute << " rad (or type=\"continuous\") for no limit";
+      fail(limit->Row(), msg.str());
+    }
     if (bounded && lower > upper) {
       std::ostringstream msg;
       msg << what << ": lower limit " << lower << " is above upper limit " << upper;
@@ -420,7 +460,9 @@ Dof dof_from_joint(const urdf::Joint& joint, const UrdfChecker& checker, const U
   Dof dof;
   dof.name = joint.name;
   dof.type = joint.type == urdf::Joint::PRISMATIC ? JointType::kPrismatic : JointType::kRevolute;
-  dof.continuous = joint.type == urdf::Joint::CONTINUOUS;
+  dof.continuous = joint.type == urdf::Joint::CONTINUOUS ||
+                   (joint.type == urdf::Joint::REVOLUTE && joint.limits &&
+                    unlimited_revolute(joint.limits->lower, joint.limits->upper) == 2);
   const bool prismatic = dof.type == JointType::kPrismatic;
   const double default_range = prismatic ? 1.0 : M_PI;
   const double default_speed = prismatic ? 0.5 : 2.0;

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <fstream>
 #include <functional>
 #include <limits>
 #include <map>
@@ -793,6 +794,61 @@ Model welded_model() {
   return builder.build();
 }
 
+// Values a ModelBuilder rejects because poses, Jacobians, W or the centre of mass computed
+// from them would overflow or be NaN (the URDF importer reports them with their line).
+TEST(ModelBuilder, RejectsValuesThatWouldOverflow) {
+  struct Change {
+    std::function<void(wbm::Dof&, wbm::Body&, wbm::Frame&)> apply;
+    std::string expected;
+  };
+  const double big = 1e308, nan = std::numeric_limits<double>::quiet_NaN();
+  const std::vector<Change> changes = {
+      {[&](wbm::Dof& d, wbm::Body&, wbm::Frame&) { d.lower = -big, d.upper = big; },
+       "dof 'j': work range must be finite, got inf (limits [-1e+308, 1e+308]; make a joint without limits continuous)"},
+      {[&](wbm::Dof& d, wbm::Body& b, wbm::Frame&) {
+         d.lower = -2e6;
+         b.joint_type = d.type = wbm::JointType::kPrismatic;
+       },
+       "dof 'j': prismatic limits [-2e+06, 1] m reach beyond 1e+06 m"},
+      {[&](wbm::Dof&, wbm::Body& b, wbm::Frame&) { b.X_PJ.p.x() = -big; }, "body 'link': joint offset (-1e+308, 0, 0.5) m reaches beyond 1e+06 m"},
+      {[&](wbm::Dof&, wbm::Body& b, wbm::Frame&) { b.inertial.mass = big; }, "body 'link': mass must be in [0, 1e+06] kg, got 1e+308"},
+      {[&](wbm::Dof&, wbm::Body& b, wbm::Frame&) { b.inertial.mass = nan; }, "body 'link': mass must be in [0, 1e+06] kg, got nan"},
+      {[&](wbm::Dof&, wbm::Body& b, wbm::Frame&) { b.inertial.com.z() = 2e6; }, "body 'link': centre of mass (0, 0, 2e+06) m reaches beyond 1e+06 m"},
+      {[&](wbm::Dof&, wbm::Body&, wbm::Frame& f) { f.X_BF.p.y() = nan; }, "frame 'tip': offset is not finite or reaches beyond"},
+      {[&](wbm::Dof&, wbm::Body&, wbm::Frame& f) { f.X_BF.p.y() = 2e6; }, "frame 'tip': offset is not finite or reaches beyond"},
+  };
+  for (const bool apply : {false, true})
+    for (const Change& change : changes) {
+      wbm::ModelBuilder builder("one_joint");
+      wbm::Dof dof;
+      dof.name = "j";
+      dof.lower = -1.0;
+      dof.upper = 1.0;
+      dof.max_speed = 1.0;
+      wbm::Body body;
+      body.name = "link";
+      body.X_PJ.p = {0.0, 0.0, 0.5};
+      body.inertial.mass = 1.0;
+      wbm::Frame frame;
+      frame.name = "tip";
+      frame.X_BF.p = {0.0, 0.0, 0.3};
+      if (apply) change.apply(dof, body, frame);
+      body.dof = builder.add_dof(dof);
+      frame.body = builder.add_body(body);
+      builder.add_frame(frame);
+      if (!apply) {
+        EXPECT_NO_THROW(builder.build());  // the model without the change is valid
+        break;
+      }
+      try {
+        builder.build();
+        ADD_FAILURE() << "accepted; wanted: " << change.expected;
+      } catch (const wbm::ModelError& e) {
+        EXPECT_NE(std::string(e.what()).find(change.expected), std::string::npos) << "got: " << e.what();
+      }
+    }
+}
+
 // Jacobians of a model with a welded body: its bodies without a dof write no column (a
 // finite sentinel column on each side of J stays untouched; += on NaN would hide a write)
 // and the centre-of-mass Jacobian matches central differences.
@@ -889,6 +945,47 @@ TEST(UrdfImport, RoundedJointAxesAreNormalised) {
           << e.what();
     }
   }
+}
+
+// sdformat writes +-1e16 for "no limit" (and URDFs converted from SDF carry it), others 1e10
+// or the largest float. Kept as limits, such a joint took all of W (its work range 2e16 rad)
+// and the other joints of its arm hardly moved; it is a continuous joint.
+TEST(UrdfImport, RevoluteJointsWithUnlimitedSpellingsAreContinuous) {
+  std::ifstream in(wbm_test::source_path("models/dual_arm/dual_arm.urdf"));
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::string original = text.str();
+  const std::string limits = "<limit lower=\"-2\" upper=\"2\" effort=\"50\" velocity=\"2\"/>";
+  const std::size_t joint = original.find("<joint name=\"left_joint1\" type=\"revolute\">");
+  const std::size_t at = original.find(limits, joint);
+  ASSERT_NE(joint, std::string::npos);
+  ASSERT_NE(at, std::string::npos);
+  auto with_limits = [&](const std::string& lower, const std::string& upper) {
+    std::string xml = original;
+    xml.replace(at, limits.size(), "<limit lower=\"" + lower + "\" upper=\"" + upper + "\" effort=\"50\" velocity=\"2\"/>");
+    return xml;
+  };
+  std::string continuous = original;
+  continuous.replace(joint, std::string("<joint name=\"left_joint1\" type=\"revolute\">").size(),
+                     "<joint name=\"left_joint1\" type=\"continuous\">");
+  const Model reference = wbm::parse_urdf(continuous, {}, "continuous.urdf");
+  const int i = reference.dof_index("left_joint1");
+  ASSERT_TRUE(reference.dof(i).continuous);
+  for (const auto& [lower, upper] : std::vector<std::pair<std::string, std::string>>{
+           {"-1e16", "1e16"}, {"-1e+16", "1e+16"}, {"-3.4028235e+38", "3.4028235e+38"}, {"-1e6", "1e6"}}) {
+    const Model model = wbm::parse_urdf(with_limits(lower, upper), {}, "unlimited.urdf");
+    ASSERT_EQ(model.num_dofs(), reference.num_dofs());
+    for (int d = 0; d < model.num_dofs(); ++d) {
+      EXPECT_EQ(model.dof(d).continuous, reference.dof(d).continuous) << lower << ", dof " << d;
+      EXPECT_EQ(model.dof(d).work_range, reference.dof(d).work_range) << lower << ", dof " << d;
+      EXPECT_EQ(model.dof(d).lower, reference.dof(d).lower) << lower << ", dof " << d;
+      EXPECT_EQ(model.dof(d).upper, reference.dof(d).upper) << lower << ", dof " << d;
+    }
+  }
+  // Just inside the threshold the limits are limits: a multi-turn joint keeps them.
+  const Model limited = wbm::parse_urdf(with_limits("-999999", "999999"), {}, "limited.urdf");
+  EXPECT_FALSE(limited.dof(i).continuous);
+  EXPECT_EQ(limited.dof(i).upper, 999999.0);
 }
 
 // ---------------------------------------------------------------------------------------

@@ -37,6 +37,12 @@ struct Dof {
   double center() const { return continuous ? 0.0 : 0.5 * (lower + upper); }
 };
 
+/// Largest length a model accepts [m] (joint offsets, centres of mass, prismatic limits)
+/// and largest body mass [kg]: beyond any robot, and small enough that no pose, Jacobian or
+/// centre of mass computed from them overflows (a joint offset of 1e308 m made them NaN).
+inline constexpr double kMaxLength = 1e6;
+inline constexpr double kMaxMass = 1e6;
+
 /// Mass properties of a body.
 struct Inertial {
   double mass = 0.0;                  ///< [kg]
@@ -158,7 +164,8 @@ class ModelBuilder {
   int num_bodies() const { return static_cast<int>(model_.bodies_.size()); }
   /// Validates everything and returns the model.
   /// @throws ModelError naming the element (duplicate names, bad axes, negative masses,
-  ///   lower limit above upper, non-positive speed limits, a dof driving no body, ...).
+  ///   lower limit above upper, non-positive speed limits, a dof driving no body, an
+  ///   infinite work range, lengths beyond kMaxLength or masses beyond kMaxMass, ...).
   Model build();
 
  private:
