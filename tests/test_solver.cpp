@@ -243,9 +243,10 @@ TEST(Solver, NullSpaceMotionDoesNotMoveTheTask) {
 /// Random controller runs: random targets (some unreachable), activation and constraint
 /// switching at random cycles, NaN targets now and then. Every cycle: no NaN, positions
 /// within limits, speeds within limits, frozen dofs exactly still. A fixed base stays
-/// frozen throughout.
+/// frozen throughout. With `jitter`, every cycle has another dt in [0.25, 4] ms (a loop
+/// that passes the measured period).
 void random_controller_run(const wbm_test::ShippedModel& entry, unsigned seed, int cycles,
-                           const std::vector<std::string>& posture = {}) {
+                           const std::vector<std::string>& posture = {}, bool jitter = false) {
   const Model model = entry.load();
   const std::string& l = entry.left_hand;
   const std::string& r = entry.right_hand;
@@ -264,8 +265,10 @@ void random_controller_run(const wbm_test::ShippedModel& entry, unsigned seed, i
   entry.freeze_base(model, cmd.free_dofs);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   std::bernoulli_distribution rare(0.01), coin(0.5), freeze(0.1);
-  const double dt = 0.002;
+  std::uniform_real_distribution<double> period(0.00025, 0.004);
+  double dt = 0.002;
   for (int k = 0; k < cycles; ++k) {
+    if (jitter) dt = period(rng);
     if (rare(rng)) {
       for (int i = 0; i < cmd.targets.size(); ++i) cmd.targets[i] = c.values()[i] + 0.6 * u(rng);
       for (int i = 0; i < cmd.task_active.size(); ++i) cmd.task_active[i] = coin(rng);
@@ -294,6 +297,11 @@ TEST_P(EveryModel, RandomControllerRunsKeepLimits) {
 TEST(Controller, RandomRunsKeepLimitsWithJointRows) {
   random_controller_run(wbm_test::shipped_model("g1_29dof"), 3, property_cases(),
                         {"waist_yaw_joint", "left_shoulder_yaw_joint", "right_wrist_roll_joint"});
+}
+
+TEST(Controller, RandomRunsKeepLimitsWithAVaryingCycleTime) {
+  for (const char* id : {"paper", "g1_29dof", "dual_arm"})
+    random_controller_run(wbm_test::shipped_model(id), 5, property_cases(), {}, /*jitter=*/true);
 }
 
 /// phi of eq. (15) between the frame's z-axis and a target, for finite differences.
