@@ -84,7 +84,8 @@ FilterParameters read_filter(const Reader& r, const YAML::Node& node, const std:
   if (node["bandwidth"]) {
     f.bandwidth = r.number(node["bandwidth"], field + ".bandwidth");
     if (f.bandwidth < TrajectoryFilter::kMinBandwidth)
-      r.fail(node["bandwidth"], field + ".bandwidth", "expected a number >= 0.001 [1/s] (a time constant of at most 1000 s)");
+      r.fail(node["bandwidth"], field + ".bandwidth",
+             "expected a number >= 0.001 [1/s] (a time constant of at most 1000 s)");
   }
   if (node["max_speed"]) f.max_speed = r.positive(node["max_speed"], field + ".max_speed");
   if (node["order"]) {

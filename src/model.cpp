@@ -229,8 +229,11 @@ Model ModelBuilder::build() {
   for (const Frame& f : m.frames_) {
     if (!names.insert(f.name).second) throw ModelError("duplicate frame " + quoted(f.name));
     if (f.body < 0 || f.body >= nb) throw ModelError("frame " + quoted(f.name) + ": body index out of range");
-    if (!f.X_BF.R.allFinite() || !f.X_BF.p.allFinite() || f.X_BF.p.lpNorm<Eigen::Infinity>() > kMaxLength)
-      throw ModelError("frame " + quoted(f.name) + ": offset is not finite or reaches beyond 1e6 m");
+    if (!f.X_BF.R.allFinite() || !f.X_BF.p.allFinite() || f.X_BF.p.lpNorm<Eigen::Infinity>() > kMaxLength) {
+      std::ostringstream msg;
+      msg << "frame " << quoted(f.name) << ": offset is not finite or reaches beyond " << kMaxLength << " m";
+      throw ModelError(msg.str());
+    }
   }
 
   m.axis_code_.assign(nb, 0);

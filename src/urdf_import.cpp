@@ -122,13 +122,13 @@ class UrdfChecker {
   /// numbers() whose magnitudes are at most `largest` (kMaxLength, kMaxMass), so that
   /// nothing computed from them overflows.
   std::vector<double> numbers_within(const TiXmlElement* e, const char* attr, size_t count, const std::string& what,
-                              double largest, const char* unit) const {
+                                     double largest, const char* unit) const {
     std::vector<double> values = numbers(e, attr, count, what);
     for (const double v : values)
       if (std::abs(v) > largest) {
         std::ostringstream msg;
-        msg << what << ": <" << e->Value() << " " << attr << "> has " << v << ", beyond the " << largest << " "
-            << unit << " wbm accepts (a unit or exponent typo?)";
+        msg << what << ": <" << e->Value() << " " << attr << "> has " << v << ", beyond the " << largest << " " << unit
+            << " wbm accepts (a unit or exponent typo?)";
         fail(e->Row(), msg.str());
       }
     return values;
@@ -460,9 +460,9 @@ Dof dof_from_joint(const urdf::Joint& joint, const UrdfChecker& checker, const U
   Dof dof;
   dof.name = joint.name;
   dof.type = joint.type == urdf::Joint::PRISMATIC ? JointType::kPrismatic : JointType::kRevolute;
-  dof.continuous = joint.type == urdf::Joint::CONTINUOUS ||
-                   (joint.type == urdf::Joint::REVOLUTE && joint.limits &&
-                    unlimited_revolute(joint.limits->lower, joint.limits->upper) == 2);
+  dof.continuous =
+      joint.type == urdf::Joint::CONTINUOUS || (joint.type == urdf::Joint::REVOLUTE && joint.limits &&
+                                                unlimited_revolute(joint.limits->lower, joint.limits->upper) == 2);
   const bool prismatic = dof.type == JointType::kPrismatic;
   const double default_range = prismatic ? 1.0 : M_PI;
   const double default_speed = prismatic ? 0.5 : 2.0;

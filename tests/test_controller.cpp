@@ -165,17 +165,21 @@ TEST(TrajectoryFilter, NoOvershootSpeedLimitContinuousVelocity) {
 TEST(TrajectoryFilter, RejectsParametersOutsideTheirRanges) {
   const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
   for (const double bandwidth : {0.0, -1.0, nan, inf, 1e-320, 0.999e-3})
-    EXPECT_THROW(TrajectoryFilter(TargetKind::kVector, 3, FilterParameters{bandwidth, 0.5, 2}), ConfigError) << bandwidth;
+    EXPECT_THROW(TrajectoryFilter(TargetKind::kVector, 3, FilterParameters{bandwidth, 0.5, 2}), ConfigError)
+        << bandwidth;
   for (const double max_speed : {0.0, -1.0, nan, inf})
-    EXPECT_THROW(TrajectoryFilter(TargetKind::kVector, 3, FilterParameters{5.0, max_speed, 2}), ConfigError) << max_speed;
-  for (const int order : {1, 7}) EXPECT_THROW(TrajectoryFilter(TargetKind::kVector, 3, FilterParameters{5.0, 0.5, order}), ConfigError);
+    EXPECT_THROW(TrajectoryFilter(TargetKind::kVector, 3, FilterParameters{5.0, max_speed, 2}), ConfigError)
+        << max_speed;
+  for (const int order : {1, 7})
+    EXPECT_THROW(TrajectoryFilter(TargetKind::kVector, 3, FilterParameters{5.0, 0.5, order}), ConfigError);
   EXPECT_THROW(TrajectoryFilter(TargetKind::kVector, 0, FilterParameters{}), ConfigError);
   EXPECT_THROW(TrajectoryFilter(TargetKind::kDirection, 2, FilterParameters{}), ConfigError);
   try {
     TrajectoryFilter(TargetKind::kVector, 3, FilterParameters{1e-5, 0.5, 2});
     ADD_FAILURE() << "no error for bandwidth 1e-5";
   } catch (const ConfigError& e) {
-    EXPECT_NE(std::string(e.what()).find("bandwidth must be finite and >= 0.001 [1/s], got 1e-05"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("bandwidth must be finite and >= 0.001 [1/s], got 1e-05"), std::string::npos)
+        << e.what();
   }
   EXPECT_NO_THROW(TrajectoryFilter(TargetKind::kVector, 3, FilterParameters{TrajectoryFilter::kMinBandwidth, 0.5, 2}));
 }
@@ -189,7 +193,8 @@ TEST(TrajectoryFilter, SlowestFilterStartedFromAFastValueStaysFinite) {
     f.reset(x, Vector3(-100.0, 100.0, -100.0));
     for (int k = 0; k < 1000; ++k) {
       f.update(Vector3(0.0, 0.0, 1.0), 0.001);
-      ASSERT_TRUE(f.value().allFinite() && f.velocity().allFinite()) << "kind " << static_cast<int>(kind) << ", step " << k;
+      ASSERT_TRUE(f.value().allFinite() && f.velocity().allFinite())
+          << "kind " << static_cast<int>(kind) << ", step " << k;
     }
   }
 }

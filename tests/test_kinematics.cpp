@@ -804,18 +804,25 @@ TEST(ModelBuilder, RejectsValuesThatWouldOverflow) {
   const double big = 1e308, nan = std::numeric_limits<double>::quiet_NaN();
   const std::vector<Change> changes = {
       {[&](wbm::Dof& d, wbm::Body&, wbm::Frame&) { d.lower = -big, d.upper = big; },
-       "dof 'j': work range must be finite, got inf (limits [-1e+308, 1e+308]; make a joint without limits continuous)"},
+       "dof 'j': work range must be finite, got inf (limits [-1e+308, 1e+308]; make a joint without limits "
+       "continuous)"},
       {[&](wbm::Dof& d, wbm::Body& b, wbm::Frame&) {
          d.lower = -2e6;
          b.joint_type = d.type = wbm::JointType::kPrismatic;
        },
        "dof 'j': prismatic limits [-2e+06, 1] m reach beyond 1e+06 m"},
-      {[&](wbm::Dof&, wbm::Body& b, wbm::Frame&) { b.X_PJ.p.x() = -big; }, "body 'link': joint offset (-1e+308, 0, 0.5) m reaches beyond 1e+06 m"},
-      {[&](wbm::Dof&, wbm::Body& b, wbm::Frame&) { b.inertial.mass = big; }, "body 'link': mass must be in [0, 1e+06] kg, got 1e+308"},
-      {[&](wbm::Dof&, wbm::Body& b, wbm::Frame&) { b.inertial.mass = nan; }, "body 'link': mass must be in [0, 1e+06] kg, got nan"},
-      {[&](wbm::Dof&, wbm::Body& b, wbm::Frame&) { b.inertial.com.z() = 2e6; }, "body 'link': centre of mass (0, 0, 2e+06) m reaches beyond 1e+06 m"},
-      {[&](wbm::Dof&, wbm::Body&, wbm::Frame& f) { f.X_BF.p.y() = nan; }, "frame 'tip': offset is not finite or reaches beyond"},
-      {[&](wbm::Dof&, wbm::Body&, wbm::Frame& f) { f.X_BF.p.y() = 2e6; }, "frame 'tip': offset is not finite or reaches beyond"},
+      {[&](wbm::Dof&, wbm::Body& b, wbm::Frame&) { b.X_PJ.p.x() = -big; },
+       "body 'link': joint offset (-1e+308, 0, 0.5) m reaches beyond 1e+06 m"},
+      {[&](wbm::Dof&, wbm::Body& b, wbm::Frame&) { b.inertial.mass = big; },
+       "body 'link': mass must be in [0, 1e+06] kg, got 1e+308"},
+      {[&](wbm::Dof&, wbm::Body& b, wbm::Frame&) { b.inertial.mass = nan; },
+       "body 'link': mass must be in [0, 1e+06] kg, got nan"},
+      {[&](wbm::Dof&, wbm::Body& b, wbm::Frame&) { b.inertial.com.z() = 2e6; },
+       "body 'link': centre of mass (0, 0, 2e+06) m reaches beyond 1e+06 m"},
+      {[&](wbm::Dof&, wbm::Body&, wbm::Frame& f) { f.X_BF.p.y() = nan; },
+       "frame 'tip': offset is not finite or reaches beyond 1e+06 m"},
+      {[&](wbm::Dof&, wbm::Body&, wbm::Frame& f) { f.X_BF.p.y() = 2e6; },
+       "frame 'tip': offset is not finite or reaches beyond 1e+06 m"},
   };
   for (const bool apply : {false, true})
     for (const Change& change : changes) {
@@ -962,7 +969,8 @@ TEST(UrdfImport, RevoluteJointsWithUnlimitedSpellingsAreContinuous) {
   ASSERT_NE(at, std::string::npos);
   auto with_limits = [&](const std::string& lower, const std::string& upper) {
     std::string xml = original;
-    xml.replace(at, limits.size(), "<limit lower=\"" + lower + "\" upper=\"" + upper + "\" effort=\"50\" velocity=\"2\"/>");
+    xml.replace(at, limits.size(),
+                "<limit lower=\"" + lower + "\" upper=\"" + upper + "\" effort=\"50\" velocity=\"2\"/>");
     return xml;
   };
   std::string continuous = original;
