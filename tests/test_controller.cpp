@@ -118,8 +118,19 @@ void converge(const wbm_test::ShippedModel& entry, unsigned seed, int targets) {
       if (k > 200 && pos < 1e-4 && ang < 0.1 * M_PI / 180) break;
     }
     EXPECT_EQ(counter.count(), 0) << entry.id << " target " << t;
-    EXPECT_LT(pos, 1e-4) << entry.id << " target " << t << "\nq_target = " << q_target.transpose();
-    EXPECT_LT(ang * 180 / M_PI, 0.1) << entry.id << " target " << t << "\nq_target = " << q_target.transpose();
+    // Not reached: say which free dofs ended at a limit. Where they block every way down the
+    // task error, it is a local minimum of the velocity-level scheme (docs/solver.md), not a
+    // wrong Jacobian or solve.
+    std::string at_limit;
+    for (int i = 0; i < model.num_dofs(); ++i)
+      if (cmd.free_dofs[i] && (c.q()[i] == model.dof(i).lower || c.q()[i] == model.dof(i).upper))
+        at_limit += " " + model.dof(i).name;
+    const std::string context = entry.id + " target " + std::to_string(t) + "\nq_target = " +
+                                wbm_test::describe_configuration(model, q_target) +
+                                "\nq_final  = " + wbm_test::describe_configuration(model, c.q()) +
+                                "\nfree dofs at a limit:" + (at_limit.empty() ? " none" : at_limit);
+    EXPECT_LT(pos, 1e-4) << context;
+    EXPECT_LT(ang * 180 / M_PI, 0.1) << context;
   }
 }
 
