@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <locale>
 #include <map>
 #include <set>
 #include <sstream>
@@ -68,6 +69,8 @@ class UrdfChecker {
       check_link(e);
     for (const TiXmlElement* e = robot->FirstChildElement("joint"); e; e = e->NextSiblingElement("joint"))
       check_joint(e);
+    for (const TiXmlElement* e = robot->FirstChildElement("material"); e; e = e->NextSiblingElement("material"))
+      check_numeric_attributes(e, "material " + quoted(e->Attribute("name") ? e->Attribute("name") : ""));
     if (links_.empty()) fail(robot->Row(), "<robot> has no <link>");
     check_tree();
   }
@@ -103,9 +106,13 @@ class UrdfChecker {
     std::vector<double> values;
     std::string token;
     while (in >> token) {
-      char* end = nullptr;
-      const double v = std::strtod(token.c_str(), &end);
-      if (end == token.c_str() || *end != '\0' || !std::isfinite(v))
+      // As urdfdom reads numbers (a classic-locale stream that must use the whole token), so
+      // that what passes here passes there: no hexadecimal, "inf", "nan" or "1,5".
+      std::istringstream number(token);
+      number.imbue(std::locale::classic());
+      double v = 0.0;
+      number >> v;
+      if (number.fail() || !number.eof() || !std::isfinite(v))
         fail(e->Row(), what + ": <" + e->Value() + " " + attr + "> has '" + token +
                            "' where a finite number was expected" +
                            (token.find("${") != std::string::npos || token.find("$(") != std::string::npos
@@ -141,12 +148,41 @@ class UrdfChecker {
       fail(e->Row(), "duplicate " + what + " (first defined on line " +
                          std::to_string(links_[name].line) + ")");
     links_[name] = {name, e->Row()};
+    check_numeric_attributes(e, what);
     if (const TiXmlElement* inertial = e->FirstChildElement("inertial")) {
       const TiXmlElement* mass = inertial->FirstChildElement("mass");
       if (mass == nullptr) fail(inertial->Row(), what + ": <inertial> lacks <mass>");
       const double m = numbers_within(mass, "value", 1, what, kMaxMass, "kg")[0];
       if (m < 0.0) fail(mass->Row(), what + ": negative mass " + std::to_string(m) + " kg (expected >= 0)");
       if (const TiXmlElement* origin = inertial->FirstChildElement("origin")) check_origin(origin, what);
+    }
+  }
+
+  /// Every number urdfdom reads below `e` (origins, axes, masses, inertias, limits,
+  /// dynamics, safety controllers, calibrations, mimics, geometries, colours) is checked
+  /// here first, so that a bad one is reported with its line: urdfdom's own message has none.
+  void check_numeric_attributes(const TiXmlElement* e, const std::string& what) const {
+    struct Numeric {
+      const char* element;
+      const char* attribute;
+      size_t count;
+    };
+    static const Numeric kNumeric[] = {
+        {"origin", "xyz", 3}, {"origin", "rpy", 3}, {"axis", "xyz", 3}, {"mass", "value", 1},
+        {"inertia", "ixx", 1}, {"inertia", "ixy", 1}, {"inertia", "ixz", 1}, {"inertia", "iyy", 1},
+        {"inertia", "iyz", 1}, {"inertia", "izz", 1}, {"limit", "lower", 1}, {"limit", "upper", 1},
+        {"limit", "effort", 1}, {"limit", "velocity", 1}, {"dynamics", "damping", 1}, {"dynamics", "friction", 1},
+        {"safety_controller", "soft_lower_limit", 1}, {"safety_controller", "soft_upper_limit", 1},
+        {"safety_controller", "k_position", 1}, {"safety_controller", "k_velocity", 1},
+        {"calibration", "rising", 1}, {"calibration", "falling", 1}, {"mimic", "multiplier", 1},
+        {"mimic", "offset", 1}, {"box", "size", 3}, {"cylinder", "radius", 1}, {"cylinder", "length", 1},
+        {"sphere", "radius", 1}, {"capsule", "radius", 1}, {"capsule", "length", 1}, {"mesh", "scale", 3},
+        {"color", "rgba", 4}};
+    for (const TiXmlElement* c = e->FirstChildElement(); c; c = c->NextSiblingElement()) {
+      for (const Numeric& n : kNumeric)
+        if (c->Value() == std::string(n.element) && c->Attribute(n.attribute) != nullptr)
+          numbers(c, n.attribute, n.count, what);
+      check_numeric_attributes(c, what);
     }
   }
 
@@ -163,6 +199,7 @@ class UrdfChecker {
     if (joint_index_.count(j.name))
       fail(j.line, "duplicate " + what + " (first defined on line " +
                        std::to_string(joints_[joint_index_[j.name]].line) + ")");
+    check_numeric_attributes(e, what);
     j.type = required(e, "type", what);
     static const std::set<std::string> kTypes = {"revolute", "continuous", "prismatic", "fixed", "floating"};
     if (j.type == "planar") fail(j.line, what + ": planar joints are not supported");
