@@ -10,6 +10,7 @@
 /// its Horner chain is longer than the library's table lookup.)
 
 #include <cmath>
+#include <limits>
 
 #include <Eigen/Core>
 
@@ -38,11 +39,13 @@ inline double angle_between_unit_vectors(double s, double s2, double c) {
 
 /// v / |v| (and 0 for v = 0, as Eigen's normalized()): for |v|^2 within 1e-8 of 1 (unit
 /// vectors up to rounding: rotation-matrix columns, filter outputs) one Newton step of
-/// 1/sqrt, error below 4e-17, without the square root and the division.
+/// 1/sqrt, error below 4e-17, without the square root and the division. Where |v|^2
+/// overflows or underflows (|v| beyond about 1e154 or below 1e-154) by scaling first.
 inline Eigen::Vector3d normalized_near_unit(const Eigen::Vector3d& v) {
   const double length2 = v.squaredNorm();
   if (std::abs(length2 - 1.0) <= 1e-8) return v * (1.5 - 0.5 * length2);
-  return length2 > 0.0 ? Eigen::Vector3d(v / std::sqrt(length2)) : v;
+  if (length2 > 0.0 && length2 < std::numeric_limits<double>::infinity()) return v / std::sqrt(length2);
+  return v.stableNormalized();
 }
 
 /// sin(x) and cos(x) - 1 for |x| <= kSeriesRange = 1/8: Taylor series to x^9 and

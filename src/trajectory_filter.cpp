@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include "wbm/errors.hpp"
@@ -20,6 +21,7 @@ namespace {
 // computed only when the cycle time changes, from a basis that does not depend on f.
 constexpr int kSlerpTerms = 8;
 constexpr double kSlerpMaxV = 0.01;
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
 using Series = std::array<double, kSlerpTerms>;
 
@@ -143,8 +145,8 @@ void TrajectoryFilter::move_towards(Eigen::Ref<Eigen::VectorXd> x, const Eigen::
       const double distance2 = d.squaredNorm();
       if (fraction * fraction * distance2 <= max_step * max_step) {
         x.head<3>() += fraction * d;
-      } else {
-        x.head<3>() += d * (max_step / std::sqrt(distance2));
+      } else {  // distance2 overflows beyond 1e154: the norm by scaling, not the square root of inf
+        x.head<3>() += d * (max_step / (distance2 < kInfinity ? std::sqrt(distance2) : d.stableNorm()));
       }
       return;
     }
@@ -152,7 +154,7 @@ void TrajectoryFilter::move_towards(Eigen::Ref<Eigen::VectorXd> x, const Eigen::
     if (fraction * fraction * distance2 <= max_step * max_step) {
       x += fraction * (to - x);
     } else {
-      x += (to - x) * (max_step / std::sqrt(distance2));
+      x += (to - x) * (max_step / (distance2 < kInfinity ? std::sqrt(distance2) : (to - x).stableNorm()));
     }
     return;
   }
@@ -208,7 +210,6 @@ void TrajectoryFilter::update(const Eigen::Ref<const Eigen::VectorXd>& target, d
     }
   }
   const double fraction = fraction_;
-  const double infinite = std::numeric_limits<double>::infinity();
   if (kind_ == TargetKind::kDirection) {
     // The stages are unit vectors; so is the target from here on.
     const Vector3 unit_target = internal::normalized_near_unit(target.head<3>());
@@ -217,11 +218,11 @@ void TrajectoryFilter::update(const Eigen::Ref<const Eigen::VectorXd>& target, d
     for (int k = 1; k < n; ++k) {
       const Vector3 previous = stages_.col(k - 1).head<3>();
       if (!slerp_by_fraction(stages_.col(k), previous, kSlerpMaxV))
-        move_towards(stages_.col(k), stages_.col(k - 1), fraction, infinite);
+        move_towards(stages_.col(k), stages_.col(k - 1), fraction, kInfinity);
     }
   } else {
     move_towards(stages_.col(0), target, fraction, parameters_.max_speed * dt);
-    for (int k = 1; k < n; ++k) move_towards(stages_.col(k), stages_.col(k - 1), fraction, infinite);
+    for (int k = 1; k < n; ++k) move_towards(stages_.col(k), stages_.col(k - 1), fraction, kInfinity);
   }
   // value_ is still the last stage before this update (every reset keeps them equal).
   const double inverse_dt = 1.0 / dt;

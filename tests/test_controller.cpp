@@ -210,6 +210,31 @@ TEST(TrajectoryFilter, SlowestFilterStartedFromAFastValueStaysFinite) {
   }
 }
 
+TEST(TrajectoryFilter, FarTargetsAreApproachedAtTheSpeedLimit) {
+  // Beyond about 1e154 the squared distance overflows: the output stalled (a step of
+  // max_step / sqrt(inf) = 0) and a direction target normalised to zero.
+  for (const double far : {1e3, 1e200, 1e308}) {
+    TrajectoryFilter f(TargetKind::kVector, 3, FilterParameters{5.0, 0.4, 2});
+    const Vector3 start(0.1, 0.2, 0.3);
+    f.reset(start, Vector3::Zero());
+    for (int k = 0; k < 1000; ++k) f.update(start + Vector3(far, -far, 0.0), 0.001);
+    const Vector3 moved = f.value() - start;
+    // Stage 1 moves 0.4 m in the second; the output lags it by about 2 / omega of speed.
+    EXPECT_GT(moved.norm(), 0.4 - 0.4 * 2.0 / 5.0 - 0.01) << far;
+    EXPECT_LE(moved.norm(), 0.4 + 1e-12) << far;
+    EXPECT_LT((moved.normalized() - Vector3(1.0, -1.0, 0.0).normalized()).norm(), 1e-12) << far;
+    EXPECT_NEAR(f.velocity().norm(), 0.4 * (1.0 - std::exp(-5.0)), 1e-3) << far;  // stage 2 follows stage 1
+
+    TrajectoryFilter d(TargetKind::kDirection, 3, FilterParameters{5.0, 0.4, 2});
+    d.reset(Vector3::UnitZ(), Vector3::Zero());
+    for (int k = 0; k < 1000; ++k) d.update(Vector3(far, far, 0.0), 0.001);
+    ASSERT_TRUE(d.value().allFinite()) << far;
+    EXPECT_NEAR(d.value().norm(), 1.0, 1e-12) << far;
+    EXPECT_NEAR(d.value().x(), d.value().y(), 1e-12) << far;  // on the great circle towards (1, 1, 0)
+    EXPECT_GT(std::acos(d.value().z()), 0.4 - 0.4 * 2.0 / 5.0 - 0.01) << far;
+  }
+}
+
 TEST(TrajectoryFilter, StartsFromTheActualValueAndVelocity) {
   FilterParameters p{4.0, 1.0, 3};
   TrajectoryFilter f(TargetKind::kVector, 2, p);
