@@ -128,7 +128,10 @@ std::string render_report(const ScenarioRun& run) {
   plots.push_back({{"title", "Joint angles"}, {"unit", "rad"}, {"series", joints}});
   if (!virtual_dofs.empty()) plots.push_back({{"title", "Heel and upper-body dofs"}, {"unit", "m, rad"}, {"series", virtual_dofs}});
   json errors = json::array();
-  for (int e = 0; e < stack.num_elements(); ++e) {
+  bool any_active = false;  // a scenario that never switches an element on has no errors to plot
+  for (int k : samples)
+    for (int e = 0; e < stack.num_elements(); ++e) any_active = any_active || run.active[k][e] > 0.0;
+  for (int e = 0; e < stack.num_elements() && any_active; ++e) {
     const std::string& type = s.tasks[e].type;
     const double scale = type == "axis" || type == "attitude" ? 180.0 / M_PI : type == "joints" ? 1.0 : 1000.0;
     const char* unit = type == "axis" || type == "attitude" ? " [deg]" : type == "joints" ? " [rad]" : " [mm]";
@@ -136,7 +139,8 @@ std::string render_report(const ScenarioRun& run) {
       return run.active[k][e] > 0.0 ? scale * run.error[k][e] : std::nan("");
     }));
   }
-  plots.push_back({{"title", "Task errors to the commanded targets (inactive: gap)"}, {"unit", "mm / deg"}, {"series", errors}});
+  if (any_active)
+    plots.push_back({{"title", "Task errors to the commanded targets (inactive: gap)"}, {"unit", "mm / deg"}, {"series", errors}});
   plots.push_back({{"title", "Null-space cost H(q)"},
                    {"unit", ""},
                    {"series", json::array({series("H", [&](int k) { return run.cost[k]; })})}});

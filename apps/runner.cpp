@@ -173,6 +173,7 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
   TaskStack& stack = c.tasks();
   for (int i = 0; i < stack.num_elements(); ++i)
     cmd.task_active.segment(stack.row_offset(i), stack.element(i).dim()).setConstant(s.tasks[i].active);
+  stack.activation() = cmd.task_active;  // the record at t = 0, before the first update, shows it
   for (const std::string& d : s.frozen)
     cmd.free_dofs[bound(s, s.frozen_line, "frozen", [&] { return model.dof_index(d); })] = false;
   if (s.fixed_base)
