@@ -99,9 +99,10 @@ double distance(const std::string& type, const Eigen::Ref<const Eigen::VectorXd>
   for (int i = 0; i < a.size(); ++i) {
     if (!all && !rows[i]) continue;
     const double d = std::abs(difference(i));
-    if (!(d <= max)) max = std::isnan(max) ? max : d;  // NaN, once seen, stays
+    if (std::isnan(d)) return d;
+    max = std::max(max, d);
   }
-  if (type == "joints" || max == 0.0 || !std::isfinite(max)) return max;
+  if (type == "joints" || max == 0.0 || std::isinf(max)) return max;
   // Scaled by the largest entry: a target 1e308 m away is that far, not an overflow to inf.
   double sum = 0.0;
   for (int i = 0; i < a.size(); ++i)

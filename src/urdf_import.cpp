@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <locale>
 #include <map>
 #include <set>
@@ -29,12 +30,13 @@ constexpr double kAxisNormTolerance = 0.01;
 /// 2e16 rad would give it all of the weighting matrix W (section IV.C).
 constexpr double kUnlimitedRevolute = 1e6;
 
-/// 0: both limits are angles; 1: one of them is beyond kUnlimitedRevolute; 2: both are
-/// (lower below -kUnlimitedRevolute, upper above +kUnlimitedRevolute).
-int unlimited_revolute(double lower, double upper) {
-  const bool low = lower <= -kUnlimitedRevolute, high = upper >= kUnlimitedRevolute;
-  if (low && high) return 2;
-  return (std::abs(lower) >= kUnlimitedRevolute || std::abs(upper) >= kUnlimitedRevolute) ? 1 : 0;
+enum class RevoluteLimits { kAngles, kOneSideUnlimited, kUnlimited };
+
+RevoluteLimits classify_revolute_limits(double lower, double upper) {
+  if (lower <= -kUnlimitedRevolute && upper >= kUnlimitedRevolute) return RevoluteLimits::kUnlimited;
+  if (std::abs(lower) >= kUnlimitedRevolute || std::abs(upper) >= kUnlimitedRevolute)
+    return RevoluteLimits::kOneSideUnlimited;
+  return RevoluteLimits::kAngles;
 }
 
 /// Where an element of the file is, for messages "FILE:LINE: ...".
@@ -61,6 +63,7 @@ class UrdfChecker {
     if (robot == nullptr) fail(1, "malformed XML: no root element");
     if (std::string(robot->Value()) != "robot")
       fail(robot->Row(), std::string("expected a <robot> root element, found <") + robot->Value() + ">");
+    required(robot, "name", "robot");  // urdfdom rejects a nameless robot, without a line
     for (const TiXmlElement* e = robot->FirstChildElement(); e; e = e->NextSiblingElement())
       if (std::string(e->Value()).rfind("xacro:", 0) == 0)
         fail(e->Row(), std::string("<") + e->Value() + "> is a xacro macro: expand the file first (`xacro " +
@@ -126,8 +129,8 @@ class UrdfChecker {
     return values;
   }
 
-  /// numbers() whose magnitudes are at most `largest` (kMaxLength, kMaxMass), so that
-  /// nothing computed from them overflows.
+  /// numbers() whose magnitudes are at most `largest` (kMaxLength, kMaxMass; infinity: any
+  /// finite number), so that nothing computed from them overflows.
   std::vector<double> numbers_within(const TiXmlElement* e, const char* attr, size_t count, const std::string& what,
                                      double largest, const char* unit) const {
     std::vector<double> values = numbers(e, attr, count, what);
@@ -152,43 +155,41 @@ class UrdfChecker {
     if (const TiXmlElement* inertial = e->FirstChildElement("inertial")) {
       const TiXmlElement* mass = inertial->FirstChildElement("mass");
       if (mass == nullptr) fail(inertial->Row(), what + ": <inertial> lacks <mass>");
-      const double m = numbers_within(mass, "value", 1, what, kMaxMass, "kg")[0];
+      const double m = numbers(mass, "value", 1, what)[0];  // finite and within kMaxMass: checked above
       if (m < 0.0) fail(mass->Row(), what + ": negative mass " + std::to_string(m) + " kg (expected >= 0)");
-      if (const TiXmlElement* origin = inertial->FirstChildElement("origin")) check_origin(origin, what);
     }
   }
 
   /// Every number urdfdom reads below `e` (origins, axes, masses, inertias, limits,
   /// dynamics, safety controllers, calibrations, mimics, geometries, colours) is checked
   /// here first, so that a bad one is reported with its line: urdfdom's own message has none.
+  /// Origins and masses also within kMaxLength and kMaxMass (prismatic limits: check_limits).
   void check_numeric_attributes(const TiXmlElement* e, const std::string& what) const {
+    constexpr double kAny = std::numeric_limits<double>::infinity();
     struct Numeric {
       const char* element;
       const char* attribute;
       size_t count;
+      double largest = kAny;
+      const char* unit = "";
     };
     static const Numeric kNumeric[] = {
-        {"origin", "xyz", 3}, {"origin", "rpy", 3}, {"axis", "xyz", 3}, {"mass", "value", 1},
-        {"inertia", "ixx", 1}, {"inertia", "ixy", 1}, {"inertia", "ixz", 1}, {"inertia", "iyy", 1},
-        {"inertia", "iyz", 1}, {"inertia", "izz", 1}, {"limit", "lower", 1}, {"limit", "upper", 1},
-        {"limit", "effort", 1}, {"limit", "velocity", 1}, {"dynamics", "damping", 1}, {"dynamics", "friction", 1},
-        {"safety_controller", "soft_lower_limit", 1}, {"safety_controller", "soft_upper_limit", 1},
-        {"safety_controller", "k_position", 1}, {"safety_controller", "k_velocity", 1},
-        {"calibration", "rising", 1}, {"calibration", "falling", 1}, {"mimic", "multiplier", 1},
-        {"mimic", "offset", 1}, {"box", "size", 3}, {"cylinder", "radius", 1}, {"cylinder", "length", 1},
-        {"sphere", "radius", 1}, {"capsule", "radius", 1}, {"capsule", "length", 1}, {"mesh", "scale", 3},
-        {"color", "rgba", 4}};
+        {"origin", "xyz", 3, kMaxLength, "m"}, {"origin", "rpy", 3}, {"axis", "xyz", 3},
+        {"mass", "value", 1, kMaxMass, "kg"}, {"inertia", "ixx", 1}, {"inertia", "ixy", 1}, {"inertia", "ixz", 1},
+        {"inertia", "iyy", 1}, {"inertia", "iyz", 1}, {"inertia", "izz", 1}, {"limit", "lower", 1},
+        {"limit", "upper", 1}, {"limit", "effort", 1}, {"limit", "velocity", 1}, {"dynamics", "damping", 1},
+        {"dynamics", "friction", 1}, {"safety_controller", "soft_lower_limit", 1},
+        {"safety_controller", "soft_upper_limit", 1}, {"safety_controller", "k_position", 1},
+        {"safety_controller", "k_velocity", 1}, {"calibration", "rising", 1}, {"calibration", "falling", 1},
+        {"mimic", "multiplier", 1}, {"mimic", "offset", 1}, {"box", "size", 3}, {"cylinder", "radius", 1},
+        {"cylinder", "length", 1}, {"sphere", "radius", 1}, {"capsule", "radius", 1}, {"capsule", "length", 1},
+        {"mesh", "scale", 3}, {"color", "rgba", 4}};
     for (const TiXmlElement* c = e->FirstChildElement(); c; c = c->NextSiblingElement()) {
       for (const Numeric& n : kNumeric)
         if (c->Value() == std::string(n.element) && c->Attribute(n.attribute) != nullptr)
-          numbers(c, n.attribute, n.count, what);
+          numbers_within(c, n.attribute, n.count, what, n.largest, n.unit);
       check_numeric_attributes(c, what);
     }
-  }
-
-  void check_origin(const TiXmlElement* origin, const std::string& what) const {
-    if (origin->Attribute("xyz")) numbers_within(origin, "xyz", 3, what, kMaxLength, "m");
-    if (origin->Attribute("rpy")) numbers(origin, "rpy", 3, what);
   }
 
   void check_joint(const TiXmlElement* e) {
@@ -212,7 +213,6 @@ class UrdfChecker {
     if (child == nullptr) fail(j.line, what + " has no <child link=...>");
     j.parent = required(parent, "link", what);
     j.child = required(child, "link", what);
-    if (const TiXmlElement* origin = e->FirstChildElement("origin")) check_origin(origin, what);
     const bool movable = j.type == "revolute" || j.type == "continuous" || j.type == "prismatic";
     if (const TiXmlElement* mimic = e->FirstChildElement("mimic")) j.mimic = required(mimic, "joint", what);
     if (movable) {
@@ -258,7 +258,7 @@ class UrdfChecker {
       numbers_within(limit, "lower", 1, what, kMaxLength, "m");
       numbers_within(limit, "upper", 1, what, kMaxLength, "m");
     }
-    if (j.type == "revolute" && unlimited_revolute(lower, upper) == 1) {
+    if (j.type == "revolute" && classify_revolute_limits(lower, upper) == RevoluteLimits::kOneSideUnlimited) {
       std::ostringstream msg;
       msg << what << ": limits [" << lower << ", " << upper << "] rad: one side is unlimited (beyond "
           << kUnlimitedRevolute << " rad), which wbm cannot represent; give both limits as angles, or both "
@@ -498,8 +498,9 @@ Dof dof_from_joint(const urdf::Joint& joint, const UrdfChecker& checker, const U
   dof.name = joint.name;
   dof.type = joint.type == urdf::Joint::PRISMATIC ? JointType::kPrismatic : JointType::kRevolute;
   dof.continuous =
-      joint.type == urdf::Joint::CONTINUOUS || (joint.type == urdf::Joint::REVOLUTE && joint.limits &&
-                                                unlimited_revolute(joint.limits->lower, joint.limits->upper) == 2);
+      joint.type == urdf::Joint::CONTINUOUS ||
+      (joint.type == urdf::Joint::REVOLUTE && joint.limits &&
+       classify_revolute_limits(joint.limits->lower, joint.limits->upper) == RevoluteLimits::kUnlimited);
   const bool prismatic = dof.type == JointType::kPrismatic;
   const double default_range = prismatic ? 1.0 : M_PI;
   const double default_speed = prismatic ? 0.5 : 2.0;

@@ -7,11 +7,11 @@
 
 #include <cstdio>
 #include <cstdlib>
-#include <fstream>
-#include <sstream>
 #include <string>
 
 #include <gtest/gtest.h>
+
+#include "test_util.hpp"
 
 namespace wbm_test {
 
@@ -19,13 +19,6 @@ struct CliRun {
   int status = -1;
   std::string out, err;
 };
-
-inline std::string read_file(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
 
 /// `tag` keeps the temporary files of parallel test processes apart.
 inline CliRun run_command(const std::string& command, const std::string& tag) {

@@ -39,6 +39,7 @@ const std::vector<Case>& catalogue() {
       {"malformed_xml.urdf", "malformed_xml.urdf:11: malformed XML: Error reading end tag", "", {}},
       {"wrong_root_element.urdf", "wrong_root_element.urdf:2: expected a <robot> root element, found <model>", "", {}},
       {"no_links.urdf", "no_links.urdf:2: <robot> has no <link>", "", {}},
+      {"robot_without_name.urdf", "robot_without_name.urdf:2: robot: <robot> lacks the attribute 'name'", "", {}},
       {"unknown_root_link.urdf", "unknown_root_link.urdf: root link 'nope' is not defined in the URDF", "nope", {}},
       {"unknown_leg_link.urdf", "unknown_leg_link.urdf: leg link 'nope' is not defined in the URDF", "", {"leg", "nope"}},
       {"leg_is_root.urdf", "leg_is_root.urdf: leg link 'base' is the root link", "", {"base"}},
@@ -164,12 +165,9 @@ TEST_P(MalformedUrdf, ThrowsParseErrorNamingFileAndLine) {
 
 TEST_P(MalformedUrdf, ParseUrdfNamesTheGivenSource) {
   const Case& c = GetParam();
-  std::ifstream in(malformed_path(c.file));
-  std::stringstream text;
-  text << in.rdbuf();
   const std::string source = "memory/" + c.file;
   try {
-    wbm::parse_urdf(text.str(), options_of(c), source);
+    wbm::parse_urdf(wbm_test::read_file(malformed_path(c.file)), options_of(c), source);
     FAIL() << c.file << " was accepted";
   } catch (const wbm::ParseError& e) {
     EXPECT_NE(std::string(e.what()).find("memory/" + c.expected), std::string::npos) << e.what();

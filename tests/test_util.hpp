@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <fstream>
 #include <numeric>
 #include <random>
 #include <sstream>
@@ -18,6 +19,14 @@
 #include "wbm/model.hpp"
 
 namespace wbm_test {
+
+/// The whole text of a file (empty if it cannot be read).
+inline std::string read_file(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
 
 /// Uniformly random configuration within the limits; continuous joints in [-pi, pi].
 inline Eigen::VectorXd random_configuration(const wbm::Model& model, std::mt19937_64& rng) {
