@@ -1,7 +1,9 @@
 // wbm: command-line tool. Subcommands: model info | model fk | model export.
 #include <unistd.h>
 
+#include <cerrno>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -27,19 +29,24 @@ struct ModelSource {
   std::string file;
   wbm::UrdfImportOptions urdf;
   bool drop_legs = false;
+  CLI::Option* root_height_option = nullptr;
 
   void add_to(CLI::App& app) {
     app.add_option("file", file, "URDF file (default: the built-in paper model)");
     app.add_option("--root", urdf.root, "URDF link that becomes the upper body (default: the URDF root)");
     app.add_option("--legs", urdf.legs, "first link of each leg subtree")->delimiter(',');
     app.add_flag("--drop-legs", drop_legs, "remove the legs instead of locking them at zero");
-    app.add_option("--root-height", urdf.root_height, "root link height above the ground [m]");
+    root_height_option = app.add_option("--root-height", urdf.root_height,
+                                        "root link height above the ground [m] (default: from the legs)");
     app.add_flag("--default-limits", urdf.default_limits,
                  "give joints without limits [-pi, pi] rad, 2 rad/s ([-1, 1] m, 0.5 m/s prismatic)");
   }
 
   wbm::Model load() {
     if (file.empty()) return wbm::make_paper_model();
+    // NaN is the library's "from the legs"; typed on the command line it is a mistake.
+    if (root_height_option->count() > 0 && std::isnan(urdf.root_height))
+      throw wbm::ConfigError("--root-height: expected a finite height > 0 m, got nan");
     urdf.leg_mode = drop_legs ? wbm::LegMode::kDrop : wbm::LegMode::kLock;
     return wbm::load_urdf(file, urdf);
   }
@@ -101,14 +108,19 @@ Eigen::VectorXd parse_configuration(const std::string& text, const wbm::Model& m
   std::stringstream in(text);
   std::string item;
   while (std::getline(in, item, ',')) {
-    try {
-      size_t used = 0;
-      values.push_back(std::stod(item, &used));
-      if (used != item.size()) throw std::invalid_argument(item);
-    } catch (const std::exception&) {
+    // Spaces around a value are allowed ("0, 0.1, ..."). strtod rather than stod: stod throws
+    // on a subnormal such as 1e-320 (ERANGE), a legal value; only overflow is out of range.
+    const size_t first = item.find_first_not_of(" \t"), last = item.find_last_not_of(" \t");
+    const std::string trimmed = first == std::string::npos ? "" : item.substr(first, last - first + 1);
+    char* end = nullptr;
+    errno = 0;
+    const double value = std::strtod(trimmed.c_str(), &end);
+    if (trimmed.empty() || end != trimmed.c_str() + trimmed.size())
       throw wbm::ConfigError("--q: '" + item + "' is not a number");
-    }
-    if (!std::isfinite(values.back())) throw wbm::ConfigError("--q: '" + item + "' is not a finite number");
+    if (errno == ERANGE && std::isinf(value))
+      throw wbm::ConfigError("--q: '" + item + "' is beyond the range of a double (about 1.8e308)");
+    if (!std::isfinite(value)) throw wbm::ConfigError("--q: '" + item + "' is not a finite number");
+    values.push_back(value);
   }
   if (static_cast<int>(values.size()) != model.num_dofs())
     throw wbm::ConfigError("--q has " + std::to_string(values.size()) + " values; the model has " +

@@ -195,6 +195,22 @@ TEST(Cli, RunChecksEveryScenarioBeforeRunningAny) {
 
 TEST(Cli, NonFiniteConfigurationFails) {
   expect_cli_error("model fk --q nan,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0 --json", "--q: 'nan' is not a finite number");
+  expect_cli_error("model fk --q 1e400,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0 --json",
+                   "--q: '1e400' is beyond the range of a double");
+  expect_cli_error("model fk --q 1x,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0 --json", "--q: '1x' is not a number");
+  expect_cli_error("model fk --q 1,,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0 --json", "--q: '' is not a number");
+  expect_cli_error("model info '" + wbm_test::shipped_model("g1_29dof").path + "' --root-height nan",
+                   "--root-height: expected a finite height > 0 m, got nan");
+}
+
+// A subnormal value is a number (std::stod would have refused it as out of range), and
+// spaces after the commas are allowed.
+TEST(Cli, SubnormalAndSpacedConfigurationValuesAreAccepted) {
+  const CliRun r = wbm_cli("model fk --q 1e-320,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0 --frames l_hand_ref --json");
+  EXPECT_EQ(r.status, 0) << r.err;
+  const json spaced = parse(wbm_cli("model fk --q '0, 0, 0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0, 0.5 ' --frames head_camera --json"));
+  const json plain = parse(wbm_cli("model fk --q 0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0.5 --frames head_camera --json"));
+  EXPECT_EQ(spaced, plain);
 }
 
 // --out naming a file: an error before anything runs, not an abort from std::filesystem.
