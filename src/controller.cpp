@@ -46,6 +46,12 @@ void Controller::update_kinematics() {
 
 void Controller::reset(const Eigen::VectorXd& q) {
   model_.check_configuration(q);
+  // tasks() is mutable (elements, activation), so TaskStack::add() is reachable; such an
+  // element would have no trajectory filter.
+  if (static_cast<int>(filters_.size()) != stack_.num_elements())
+    throw ConfigError("controller: task element '" + stack_.element(static_cast<int>(filters_.size())).name() +
+                      "' was added with tasks().add(); add elements with Controller::add_task(), which also "
+                      "gives them their trajectory filter");
   solver_ = std::make_unique<WholeBodySolver>(model_, stack_.num_rows(), solver_parameters_);
   q_ = q;
   q_next_ = q;
@@ -78,7 +84,8 @@ Command Controller::make_command() const {
 ControllerStatus Controller::update(const Command& command, double dt) {
   ControllerStatus status;
   const int nt = stack_.num_targets();
-  if (!solver_ || !(std::isfinite(dt) && dt > 0.0) || command.targets.size() != nt ||
+  // values_ has the targets of the elements at reset(); more means an element added since.
+  if (!solver_ || values_.size() != nt || !(std::isfinite(dt) && dt > 0.0) || command.targets.size() != nt ||
       command.task_active.size() != stack_.num_rows() || command.free_dofs.size() != model_.num_dofs() ||
       (command.external_velocity.size() != 0 && command.external_velocity.size() != model_.num_dofs()) ||
       !command.external_velocity.allFinite()) {
