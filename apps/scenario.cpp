@@ -144,18 +144,31 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
   s.name = r.text(root["name"], "name");
   if (root["description"]) s.description = r.text(root["description"], "description");
   if (const YAML::Node robot = root["robot"]) {
-    r.only(robot, "robot", {"builtin", "urdf", "root", "legs", "drop_legs", "root_height", "default_limits", "fixed_base"});
+    r.only(robot, "robot", {"builtin", "urdf", "root", "legs", "drop_legs", "root_height", "root_rpy", "default_limits",
+                            "fixed_base"});
     s.robot_line = r.line(robot);
     if (robot["builtin"] && r.text(robot["builtin"], "robot.builtin") != "paper")
       r.fail(robot["builtin"], "robot.builtin", "expected 'paper' (the only built-in model)");
     if (robot["urdf"]) {
+      if (robot["builtin"]) r.fail(robot["builtin"], "robot.builtin", "robot.urdf names the robot; give one of the two");
       s.urdf = r.text(robot["urdf"], "robot.urdf");
       if (!s.urdf.empty() && s.urdf[0] != '/') s.urdf = base_dir + "/" + s.urdf;
+    } else {  // the import options would be ignored without a word
+      for (const char* option : {"root", "legs", "drop_legs", "root_height", "root_rpy", "default_limits"})
+        if (robot[option])
+          r.fail(robot[option], std::string("robot.") + option,
+                 "an option of the URDF import; the built-in paper model takes none (add robot.urdf)");
     }
     if (robot["root"]) s.urdf_options.root = r.text(robot["root"], "robot.root");
     if (robot["legs"]) s.urdf_options.legs = r.strings(robot["legs"], "robot.legs");
     if (robot["drop_legs"] && r.boolean(robot["drop_legs"], "robot.drop_legs")) s.urdf_options.leg_mode = LegMode::kDrop;
     if (robot["root_height"]) s.urdf_options.root_height = r.positive(robot["root_height"], "robot.root_height");
+    if (robot["root_rpy"]) {
+      const Eigen::VectorXd rpy = r.vector(robot["root_rpy"], "robot.root_rpy");
+      if (rpy.size() != 3 || !(rpy.array().abs() <= 2.0 * M_PI + 1e-6).all())
+        r.fail(robot["root_rpy"], "robot.root_rpy", "expected [roll, pitch, yaw] in [-2 pi, 2 pi] rad");
+      s.urdf_options.root_rpy = rpy;
+    }
     if (robot["default_limits"]) s.urdf_options.default_limits = r.boolean(robot["default_limits"], "robot.default_limits");
     if (robot["fixed_base"]) s.fixed_base = r.boolean(robot["fixed_base"], "robot.fixed_base");
   }

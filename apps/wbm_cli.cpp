@@ -30,6 +30,7 @@ struct ModelSource {
   wbm::UrdfImportOptions urdf;
   bool drop_legs = false;
   CLI::Option* root_height_option = nullptr;
+  std::vector<double> root_rpy;
 
   void add_to(CLI::App& app) {
     app.add_option("file", file, "URDF file (default: the built-in paper model)");
@@ -38,6 +39,11 @@ struct ModelSource {
     app.add_flag("--drop-legs", drop_legs, "remove the legs instead of locking them at zero");
     root_height_option = app.add_option("--root-height", urdf.root_height,
                                         "root link height above the ground [m] (default: from the legs)");
+    app.add_option("--root-rpy", root_rpy,
+                   "orientation of the root link in wbm's frame (x forward, z up): roll,pitch,yaw [rad], "
+                   "e.g. 0,0,3.14159 for a root link whose x axis points backward")
+        ->delimiter(',')
+        ->expected(3);
     app.add_flag("--default-limits", urdf.default_limits,
                  "give joints without limits [-pi, pi] rad, 2 rad/s ([-1, 1] m, 0.5 m/s prismatic)");
   }
@@ -47,6 +53,7 @@ struct ModelSource {
     // NaN is the library's "from the legs"; typed on the command line it is a mistake.
     if (root_height_option->count() > 0 && std::isnan(urdf.root_height))
       throw wbm::ConfigError("--root-height: expected a finite height > 0 m, got nan");
+    if (!root_rpy.empty()) urdf.root_rpy = Eigen::Vector3d(root_rpy[0], root_rpy[1], root_rpy[2]);
     urdf.leg_mode = drop_legs ? wbm::LegMode::kDrop : wbm::LegMode::kLock;
     return wbm::load_urdf(file, urdf);
   }

@@ -25,7 +25,7 @@
 //
 // Own flags (before Google Benchmark's): --wbm_urdf=FILE --wbm_root=LINK --wbm_legs=A,B
 // --wbm_hands=LEFT,RIGHT [--wbm_head=FRAME] [--wbm_com] [--wbm_posture=DOF,DOF,...]
-// [--wbm_default_limits] [--wbm_drop_legs] [--wbm_root_height=H] [--wbm_fixed_base]
+// [--wbm_default_limits] [--wbm_drop_legs] [--wbm_root_height=H] [--wbm_root_rpy=R,P,Y] [--wbm_fixed_base]
 // [--wbm_id=NAME] register a fixture "<NAME>" (default "custom") on that model;
 // --wbm_loop=SECONDS [--wbm_rate=HZ] [--wbm_priority=P] [--wbm_spin] run the periodic
 // real-time loop (periodic_loop.hpp) on that fixture, or on paper_r12, g1_r20 and romeo_r12,
@@ -170,7 +170,7 @@ bool parse_own_flags(int& argc, char** argv, FixtureSpec& custom, LoopRequest& l
   if (!parse_loop_flags(flags, loop, error)) return false;
   if (flags.empty()) return false;
   static const char* known[] = {"urdf",      "root",        "legs",        "hands", "head", "com", "posture",
-                                "default_limits", "drop_legs", "root_height", "fixed_base", "id"};
+                                "default_limits", "drop_legs", "root_height", "root_rpy", "fixed_base", "id"};
   for (const auto& flag : flags)
     if (std::none_of(std::begin(known), std::end(known), [&](const char* k) { return flag.first == k; })) {
       error = "unknown flag --wbm_" + flag.first;
@@ -188,6 +188,16 @@ bool parse_own_flags(int& argc, char** argv, FixtureSpec& custom, LoopRequest& l
   if (flags.count("root_height") && !parse_number("--root-height (--wbm_root_height)", flags["root_height"],
                                                    "a number of metres", options.root_height, error))
     return false;
+  if (flags.count("root_rpy")) {
+    const std::vector<std::string> angles = split(flags["root_rpy"], ',');
+    if (angles.size() != 3) {
+      error = "--root-rpy (--wbm_root_rpy) '" + flags["root_rpy"] + "': ROLL,PITCH,YAW in radians expected";
+      return false;
+    }
+    for (int k = 0; k < 3; ++k)
+      if (!parse_number("--root-rpy (--wbm_root_rpy)", angles[k], "an angle in radians", options.root_rpy[k], error))
+        return false;
+  }
   const std::vector<std::string> hands = split(flags["hands"], ',');
   if (hands.size() != 2) {
     error = "--hands LEFT,RIGHT (--wbm_hands) is required: the two frames whose position and grasp axis are "

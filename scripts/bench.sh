@@ -9,7 +9,7 @@
 #                                         URDF (below): on your robot
 #   scripts/bench.sh ROBOT.urdf --hands LEFT,RIGHT [--head FRAME] [--root LINK] [--legs A,B]
 #                    [--com] [--posture DOF,DOF,...]
-#                    [--default-limits] [--drop-legs] [--root-height H] [--fixed-base] [--short]
+#                    [--default-limits] [--drop-legs] [--root-height H] [--root-rpy R,P,Y] [--fixed-base] [--short]
 #                                         your robot: both hands position + grasp axis and the
 #                                         head's view axis (12 rows; 10 without --head), the
 #                                         centre of mass (3 rows) and joint rows if asked, with

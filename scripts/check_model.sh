@@ -2,7 +2,7 @@
 # Runs wbm's per-model correctness tests on your robot: the tests every shipped model passes.
 #
 #   scripts/check_model.sh ROBOT.urdf --hands LEFT,RIGHT [--head FRAME] [--legs A,B] [--root LINK]
-#                          [--root-height H] [--default-limits] [--drop-legs] [--fixed-base]
+#                          [--root-height H] [--root-rpy R,P,Y] [--default-limits] [--drop-legs] [--fixed-base]
 #                          [--build-dir DIR]
 #
 #   kinematics  every Jacobian (frames, points, axes, centre of mass) against central

@@ -318,7 +318,7 @@ Eigen::VectorXd upright_base_configuration(const Model& model, const Eigen::Vect
 }
 
 int add_virtual_base(ModelBuilder& builder, double height, const std::string& upper_body_name,
-                     const Inertial& heel, const Inertial& upper_body) {
+                     const Inertial& heel, const Inertial& upper_body, const Matrix3& R_UR) {
   if (!std::isfinite(height) || height <= 0.0)
     throw ModelError("upper-body height above the heel must be > 0 m, got " + std::to_string(height));
   const std::array<Dof, 9> dofs = default_virtual_dofs(height);
@@ -338,6 +338,10 @@ int add_virtual_base(ModelBuilder& builder, double height, const std::string& up
     body.parent = parent;
     body.joint_type = dofs[k].type;
     body.axis = axes[k];
+    if (k == 8) {  // the root link, turned by R_UR; its yaw axis stays the vertical
+      body.X_PJ.R = R_UR;
+      body.axis = R_UR.transpose() * axes[k];
+    }
     body.dof = builder.add_dof(dofs[k]);
     if (k == 2) body.inertial = heel;
     if (k == 8) body.inertial = upper_body;

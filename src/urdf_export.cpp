@@ -1,6 +1,7 @@
 #include <iomanip>
 #include <sstream>
 
+#include "wbm/errors.hpp"
 #include "wbm/kinematics.hpp"
 #include "wbm/urdf_import.hpp"
 
@@ -54,8 +55,11 @@ std::string export_urdf(const Model& model, const UrdfExportOptions& options) {
   out << "<?xml version=\"1.0\"?>\n<!-- Written by wbm from model '" << model.name() << "'. ";
   if (whole_tree)
     out << "Every dof is a joint, the virtual ones included; link '" << root_link << "' is the world frame. -->\n";
-  else
+  else if (model.body(root).X_PJ.R.isIdentity(0.0))
     out << "Import with root '" << root_link << "'. -->\n";
+  else  // turned by UrdfImportOptions::root_rpy
+    out << "Import with root '" << root_link << "' and root_rpy " << vec(rpy_from_rotation(model.body(root).X_PJ.R))
+        << ". -->\n";
   out << "<robot name=\"" << model.name() << "\">\n";
   out << "  <link name=\"" << root_link << "\">\n";
   if (!whole_tree) write_inertial(out, model.body(root).inertial);
@@ -70,7 +74,21 @@ std::string export_urdf(const Model& model, const UrdfExportOptions& options) {
     out << "  </link>\n  <joint name=\"heel_mass_joint\" type=\"fixed\">\n    <parent link=\""
         << root_link << "\"/>\n    <child link=\"heel_mass\"/>\n    " << origin(X_UH) << "\n  </joint>\n";
   }
-  std::vector<bool> driven(model.num_dofs(), false);
+  // Each dof's URDF joint (named as the dof, carrying its limits) is a body it drives with
+  // multiplier 1 and offset 0; the other bodies it drives are <mimic> joints of it. Not
+  // simply the first body: after re-rooting, a reversed mimic joint can come first.
+  std::vector<int> primary_body(model.num_dofs(), -1);
+  for (int b = model.num_bodies() - 1; b > root; --b) {
+    const Body& body = model.body(b);
+    if (body.dof >= 0 && body.multiplier == 1.0 && body.offset == 0.0) primary_body[body.dof] = b;
+  }
+  for (int b = root + 1; b < model.num_bodies(); ++b) {
+    const Body& body = model.body(b);
+    if (body.dof >= 0 && primary_body[body.dof] < 0)
+      throw ModelError("export_urdf: dof '" + model.dof(body.dof).name + "' drives no body with multiplier 1 and offset "
+                       "0 (body '" + body.name + "' has " + std::to_string(body.multiplier) + " and " +
+                       std::to_string(body.offset) + "); a URDF joint cannot scale its own value");
+  }
   for (int b = root + 1; b < model.num_bodies(); ++b) {
     const Body& body = model.body(b);
     out << "  <link name=\"" << body.name << "\">\n";
@@ -83,9 +101,7 @@ std::string export_urdf(const Model& model, const UrdfExportOptions& options) {
       continue;
     }
     const Dof& dof = model.dof(body.dof);
-    // The first body a dof drives carries the dof's name; later ones are mimic joints.
-    const bool primary = !driven[body.dof];
-    driven[body.dof] = true;
+    const bool primary = primary_body[body.dof] == b;
     const char* type = dof.continuous ? "continuous" : to_string(body.joint_type);
     out << "  <joint name=\"" << (primary ? dof.name : body.name + "_joint") << "\" type=\"" << type
         << "\">\n    <parent link=\"" << link_name(body.parent) << "\"/>\n    <child link=\"" << body.name

@@ -409,11 +409,12 @@ class TreeBuilder {
     }
   }
 
-  void build(const std::string& root) {
+  /// @param R_UR the root link's orientation in the upper-body frame (root_rpy).
+  void build(const std::string& root, const Matrix3& R_UR) {
     BodySpec spec;
     spec.body.name = root;
     specs_.push_back(spec);
-    visit(root, 0, Transform::Identity(), Transform::Identity(), nullptr, Mode::kNormal);
+    visit(root, 0, Transform::Identity(), Transform{R_UR, Vector3::Zero()}, nullptr, Mode::kNormal);
   }
 
   std::vector<BodySpec> specs_;
@@ -423,8 +424,9 @@ class TreeBuilder {
  private:
   enum class Mode { kNormal, kLocked, kDropped };
 
-  /// X_BL: pose of the link in its body; X_RL: pose of the link in the root link at zero
-  /// joint values (for the root height, also when legs hang below reversed joints).
+  /// X_BL: pose of the link in its body; X_RL: pose of the link in the upper-body frame
+  /// (the root link turned by root_rpy) at zero joint values (for the root height, also
+  /// when legs hang below reversed joints).
   void visit(const std::string& link_name, int body, const Transform& X_BL, const Transform& X_RL,
              const JointInfo* from, Mode mode) {
     const urdf::Link& link = *urdf_.links_.at(link_name);
@@ -593,8 +595,16 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
   for (const std::string& leg : options.legs)
     if (leg == root) throw ParseError(source + ": leg link " + quoted(leg) + " is the root link");
 
+  const Vector3& rpy = options.root_rpy;
+  if (!(rpy.array().abs() <= 2.0 * M_PI + 1e-6).all()) {  // a rounded 2 pi (6.283185) passes
+    std::ostringstream msg;
+    msg << source << ": the root link's roll, pitch, yaw (root_rpy, --root-rpy) must be finite and within [-2 pi, 2 pi] "
+        << "rad, got " << rpy.x() << ", " << rpy.y() << ", " << rpy.z();
+    throw ParseError(msg.str());
+  }
+  const Matrix3 R_UR = rotation_from_rpy(rpy.x(), rpy.y(), rpy.z());
   TreeBuilder tree(*urdf, checker, options);
-  tree.build(root);
+  tree.build(root, R_UR);
   double height = options.root_height;
   if (!std::isnan(height) && !(std::isfinite(height) && height > 0.0)) {
     std::ostringstream msg;
@@ -603,12 +613,13 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
   }
   if (std::isnan(height)) height = std::isfinite(tree.lowest_leg_z_) ? -tree.lowest_leg_z_ : 1.0;
   if (!(height > 0.0))
-    throw ParseError(source + ": the root height above the ground must be > 0 m (the legs' lowest link is above the root; "
-                              "give the root height explicitly)");
+    throw ParseError(source + ": the root height above the ground must be > 0 m (the legs' lowest link is not below the "
+                              "root: give the root height explicitly, or, if the root link's z axis is not up, its "
+                              "orientation with root_rpy, --root-rpy)");
 
   check_virtual_names(checker, tree, height);
   ModelBuilder builder(urdf->getName());
-  const int ub = add_virtual_base(builder, height, root, Inertial{}, tree.specs_[0].body.inertial);
+  const int ub = add_virtual_base(builder, height, root, Inertial{}, tree.specs_[0].body.inertial, R_UR);
   // Number the dofs in body order; mimic joints share their master's dof.
   std::map<std::string, int> dof_of_joint;
   for (const BodySpec& spec : tree.specs_)

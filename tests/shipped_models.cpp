@@ -1,5 +1,6 @@
 #include "shipped_models.hpp"
 
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <iostream>
@@ -54,7 +55,7 @@ std::string join(const std::vector<std::string>& names) {
 
 /// The user's robot (scripts/check_model.sh): WBM_TEST_URDF=PATH, WBM_TEST_HANDS=LEFT,RIGHT
 /// (frames), optional WBM_TEST_HEAD (frame), WBM_TEST_LEGS=A,B, WBM_TEST_ROOT (links),
-/// WBM_TEST_ROOT_HEIGHT (m), WBM_TEST_DEFAULT_LIMITS=1, WBM_TEST_DROP_LEGS=1,
+/// WBM_TEST_ROOT_HEIGHT (m), WBM_TEST_ROOT_RPY=R,P,Y (rad), WBM_TEST_DEFAULT_LIMITS=1, WBM_TEST_DROP_LEGS=1,
 /// WBM_TEST_FIXED_BASE=1. Its id, in test names, is "user".
 ShippedModel model_from_environment() {
   ShippedModel m;
@@ -81,6 +82,15 @@ ShippedModel model_from_environment() {
     if (*end != '\0' || !(m.options.root_height > 0.0))
       environment_error(std::string("--root-height (WBM_TEST_ROOT_HEIGHT): expected a height > 0 in metres, got '") +
                         height + "'");
+  }
+  if (const std::vector<std::string> rpy = split_names("--root-rpy", "WBM_TEST_ROOT_RPY"); !rpy.empty()) {
+    if (rpy.size() != 3) environment_error("--root-rpy (WBM_TEST_ROOT_RPY): expected ROLL,PITCH,YAW in radians");
+    for (int k = 0; k < 3; ++k) {
+      char* end = nullptr;
+      m.options.root_rpy[k] = std::strtod(rpy[k].c_str(), &end);
+      if (*end != '\0' || !std::isfinite(m.options.root_rpy[k]))
+        environment_error("--root-rpy (WBM_TEST_ROOT_RPY): '" + rpy[k] + "' is not an angle in radians");
+    }
   }
   m.options.default_limits = std::getenv("WBM_TEST_DEFAULT_LIMITS") != nullptr;
   if (std::getenv("WBM_TEST_DROP_LEGS") != nullptr) m.options.leg_mode = wbm::LegMode::kDrop;
@@ -180,6 +190,10 @@ std::vector<ShippedModel> import_variants() {
   ShippedModel g1 = shipped_model("g1_29dof");
   g1.id = "g1_29dof_torso_root";
   g1.options.root = "torso_link";
+  variants.push_back(g1);
+  g1 = shipped_model("g1_29dof");
+  g1.id = "g1_29dof_root_turned";  // root_rpy: the root link turned and tilted in the upper-body frame
+  g1.options.root_rpy = wbm::Vector3(0.3, -0.2, 2.5);
   variants.push_back(g1);
   g1 = shipped_model("g1_29dof");
   g1.id = "g1_29dof_legs_dropped";

@@ -203,6 +203,19 @@ TEST(Cli, NonFiniteConfigurationFails) {
                    "--root-height: expected a finite height > 0 m, got nan");
 }
 
+// --root-rpy turns the root link: G1 turned by pi about z has its left hand on the world's
+// right (y < 0) at home; out of range is an error naming the option.
+TEST(Cli, RootRpyTurnsTheRobot) {
+  const wbm_test::ShippedModel& g1 = wbm_test::shipped_model("g1_29dof");
+  const std::string args = "model fk '" + g1.path + "' --legs left_hip_pitch_link,right_hip_pitch_link --frames " +
+                           g1.left_hand + " --json";
+  const json plain = parse(wbm_cli(args));
+  const json turned = parse(wbm_cli(args + " --root-rpy 0,0,3.141592653589793"));
+  EXPECT_GT(plain["frames"][g1.left_hand]["position"][1].get<double>(), 0.05);
+  EXPECT_LT(turned["frames"][g1.left_hand]["position"][1].get<double>(), -0.05);
+  expect_cli_error(args + " --root-rpy 0,0,9", "(root_rpy, --root-rpy) must be finite and within [-2 pi, 2 pi] rad");
+}
+
 // A subnormal value is a number (std::stod would have refused it as out of range), and
 // spaces after the commas are allowed.
 TEST(Cli, SubnormalAndSpacedConfigurationValuesAreAccepted) {

@@ -250,7 +250,7 @@ TEST_P(Kinematics, NamedFramesExist) {
 }
 
 // upright_base_configuration: the root link (upper body) stands at (0, 0, root height) with
-// the world's axes, whatever the other joints do; only the virtual dofs change. With the
+// the world's axes (or turned against them by root_rpy), whatever the other joints do; only the virtual dofs change. With the
 // KDL comparison (poses relative to the root link), every link is then where the URDF puts
 // it, lifted by the root height: the fixed base of e.g. models/dual_arm.
 TEST_P(Kinematics, UprightBasePutsTheRootAtItsHeightWithTheWorldAxes) {
@@ -271,7 +271,9 @@ TEST_P(Kinematics, UprightBasePutsTheRootAtItsHeightWithTheWorldAxes) {
     model.check_configuration(upright);
     wbm::forward_kinematics(model, data, upright);
     const Transform& X_WU = data.X_WB[v.upper_body];
-    ASSERT_LT((X_WU.R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff(), 1e-12) << entry.id;
+    // The world's axes, or the root link's turn (root_rpy) against them.
+    const wbm::Matrix3& R_UR = model.body(v.upper_body).X_PJ.R;
+    ASSERT_LT((X_WU.R - R_UR).cwiseAbs().maxCoeff(), 1e-12) << entry.id;
     ASSERT_LT((X_WU.p - wbm::Vector3(0.0, 0.0, height)).cwiseAbs().maxCoeff(), 1e-12) << entry.id;
     ASSERT_LT(data.X_WB[v.heel_body].p.norm(), 1e-12) << entry.id;
   }
@@ -669,6 +671,108 @@ TEST(ReRooting, G1TorsoRootGivesTheSameRelativePoses) {
   EXPECT_EQ(failures, 0);
 }
 
+// root_rpy turns the root link in the upper-body frame. The same model, written in the
+// URDF: a link welded to the root with the inverse turn, made the root. Every frame's world
+// pose, the home pose, the root height and the mass must agree, for a robot facing
+// backward (iCub's root_link), one lying on its side (y up) and random turns.
+TEST(UrdfImport, RootRpyTurnsTheRootAsAWeldedTurnedRootLinkWould) {
+  const ShippedModel& g1 = wbm_test::shipped_model("g1_29dof");
+  const std::string original = wbm_test::read_file(g1.path);
+  std::vector<Vector3> turns = {{0.0, 0.0, M_PI}, {0.2, -0.3, 1.0}, {M_PI / 2, 0.0, 0.0}, {0.0, -M_PI / 2, 0.3}};
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> angle(-M_PI, M_PI);
+  for (int k = 0; k < 4; ++k) turns.emplace_back(angle(rng), angle(rng) / 2, angle(rng));
+  for (const Vector3& rpy : turns) {
+    wbm::UrdfImportOptions turned_options = g1.options;
+    turned_options.root_rpy = rpy;
+    // The root height from the legs where they still hang below the turned root (it then
+    // differs from the unturned one's for a tilt); given where they point elsewhere.
+    if (std::abs(rpy.x()) > 0.5 || std::abs(rpy.y()) > 0.5) turned_options.root_height = 0.8;
+    const Model turned = wbm::parse_urdf(original, turned_options, "g1.urdf");
+    const Vector3 inverse = wbm::rpy_from_rotation(wbm::rotation_from_rpy(rpy.x(), rpy.y(), rpy.z()).transpose());
+    std::ostringstream weld;
+    weld.precision(17);
+    weld << "  <link name=\"turned_root\"/>\n  <joint name=\"turned_root_joint\" type=\"fixed\">\n"
+         << "    <parent link=\"pelvis\"/>\n    <child link=\"turned_root\"/>\n    <origin xyz=\"0 0 0\" rpy=\""
+         << inverse.x() << " " << inverse.y() << " " << inverse.z() << "\"/>\n  </joint>\n</robot>";
+    std::string welded_text = original;
+    welded_text.replace(welded_text.rfind("</robot>"), 8, weld.str());
+    wbm::UrdfImportOptions welded_options = turned_options;
+    welded_options.root_rpy.setZero();
+    welded_options.root = "turned_root";
+    const Model welded = wbm::parse_urdf(welded_text, welded_options, "g1_welded.urdf");
+
+    ASSERT_EQ(turned.num_dofs(), welded.num_dofs());
+    EXPECT_NEAR(turned.total_mass(), welded.total_mass(), 1e-12);
+    for (int i = 0; i < turned.num_dofs(); ++i) {
+      ASSERT_EQ(turned.dof(i).name, welded.dof(i).name);
+      if (turned.dof(i).continuous) continue;
+      EXPECT_NEAR(turned.dof(i).lower, welded.dof(i).lower, 1e-12) << turned.dof(i).name;  // root height
+      EXPECT_NEAR(turned.dof(i).upper, welded.dof(i).upper, 1e-12) << turned.dof(i).name;
+    }
+    EXPECT_LT((turned.home() - welded.home()).cwiseAbs().maxCoeff(), 1e-12);
+    Data dt(turned), dw(welded);
+    std::mt19937_64 qrng(17);
+    for (int c = 0; c < 20; ++c) {
+      const Eigen::VectorXd q = c == 0 ? turned.home() : wbm_test::random_configuration(turned, qrng);
+      wbm::forward_kinematics(turned, dt, q);
+      wbm::forward_kinematics(welded, dw, q);
+      int compared = 0;
+      for (int f = 0; f < turned.num_frames(); ++f) {
+        const int g = welded.find_frame(turned.frame(f).name);
+        if (g < 0) continue;
+        ++compared;
+        const double d = wbm_test::transform_distance(wbm::frame_pose(turned, dt, f), wbm::frame_pose(welded, dw, g));
+        ASSERT_LT(d, 1e-9) << "frame " << turned.frame(f).name << " with root_rpy " << rpy.transpose()
+                           << "\n  q = " << wbm_test::describe_configuration(turned, q);
+      }
+      EXPECT_GE(compared, 40);
+      EXPECT_LT((wbm::center_of_mass(turned, dt) - wbm::center_of_mass(welded, dw)).norm(), 1e-9);
+    }
+  }
+  // G1's root link follows REP 103 (x forward): at home its hands are ahead of the pelvis
+  // (world +x); turned by pi about z they are behind it, i.e. the robot faces -x.
+  wbm::UrdfImportOptions backward = g1.options;
+  backward.root_rpy = Vector3(0.0, 0.0, M_PI);
+  const Model plain = g1.load(), turned = wbm::parse_urdf(original, backward, "g1.urdf");
+  auto hand_ahead_of_pelvis = [&](const Model& model) {
+    Data data(model);
+    wbm::forward_kinematics(model, data, model.home());
+    return wbm::frame_pose(model, data, model.frame_index(g1.left_hand)).p.x() -
+           wbm::frame_pose(model, data, model.frame_index("pelvis")).p.x();
+  };
+  EXPECT_GT(hand_ahead_of_pelvis(plain), 0.05);
+  EXPECT_LT(hand_ahead_of_pelvis(turned), -0.05);
+}
+
+// Finite angles within [-2 pi, 2 pi] only; a root link lying on its side without root_rpy
+// gets a hint when its legs are not below it.
+TEST(UrdfImport, RootRpyOutOfRangeIsAnError) {
+  const ShippedModel& g1 = wbm_test::shipped_model("g1_29dof");
+  for (const Vector3& rpy : {Vector3(0.0, 0.0, std::nan("")), Vector3(7.0, 0.0, 0.0), Vector3(0.0, -1e300, 0.0)}) {
+    wbm::UrdfImportOptions options = g1.options;
+    options.root_rpy = rpy;
+    try {
+      wbm::load_urdf(g1.path, options);
+      ADD_FAILURE() << rpy.transpose() << " was accepted";
+    } catch (const wbm::ParseError& e) {
+      EXPECT_NE(std::string(e.what()).find("root_rpy, --root-rpy) must be finite and within [-2 pi, 2 pi]"),
+                std::string::npos)
+          << e.what();
+    }
+  }
+  wbm::UrdfImportOptions upside_down = g1.options;
+  upside_down.root_rpy = Vector3(M_PI, 0.0, 0.0);
+  try {
+    wbm::load_urdf(g1.path, upside_down);
+    ADD_FAILURE() << "legs above the root were accepted";
+  } catch (const wbm::ParseError& e) {
+    EXPECT_NE(std::string(e.what()).find("if the root link's z axis is not up, its orientation with root_rpy"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(ReRooting, RootHeightComesFromTheLegsAlsoWhenTheyHangBelowReversedJoints) {
   const ShippedModel& g1 = wbm_test::shipped_model("g1_29dof");
   const Model pelvis = g1.load();
@@ -754,6 +858,12 @@ TEST_P(ExportRoundTrip, SameFramePosesAfterExportAndImport) {
   wbm::UrdfImportOptions options;
   options.root = original.body(original.virtual_dofs().upper_body).name;
   options.root_height = original.dof(original.virtual_dofs().ub_z).upper;
+  // A root turned by root_rpy: the file's comment names it, and the import needs it again.
+  const wbm::Matrix3& R_UR = original.body(original.virtual_dofs().upper_body).X_PJ.R;
+  if (!R_UR.isIdentity(0.0)) {
+    options.root_rpy = wbm::rpy_from_rotation(R_UR);
+    EXPECT_NE(wbm::export_urdf(original).find("and root_rpy "), std::string::npos);
+  }
   const Model back = wbm::parse_urdf(wbm::export_urdf(original), options, entry.id + "_export.urdf");
   ASSERT_EQ(back.num_dofs(), original.num_dofs());
   EXPECT_NEAR(back.total_mass(), original.total_mass(), 1e-9);
@@ -761,9 +871,12 @@ TEST_P(ExportRoundTrip, SameFramePosesAfterExportAndImport) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Urdfs, ExportRoundTrip, testing::ValuesIn(wbm_test::shipped_urdf_models()), wbm_test::ModelIdName());
+INSTANTIATE_TEST_SUITE_P(ImportVariants, ExportRoundTrip, testing::ValuesIn(wbm_test::import_variants()),
+                         wbm_test::ModelIdName());
 
 /// A model with a body welded to its parent (no dof): legal in a ModelBuilder model.
-Model welded_model() {
+/// `arm_multiplier`: the arm's coupling to its dof (URDF can express only 1 there).
+Model welded_model(double arm_multiplier = 1.0) {
   wbm::ModelBuilder builder("welded");
   wbm::Inertial trunk;
   trunk.mass = 10.0;
@@ -779,6 +892,7 @@ Model welded_model() {
   dof.upper = 1.0;
   dof.max_speed = 2.0;
   arm.dof = builder.add_dof(dof);
+  arm.multiplier = arm_multiplier;
   arm.inertial.mass = 1.0;
   const int arm_body = builder.add_body(arm);
   wbm::Body hand;
@@ -905,6 +1019,19 @@ TEST(Export, ModelWithWeldedBody) {
   EXPECT_LT(wbm_test::transform_distance(wbm::frame_pose(original, da, original.frame_index("hand")),
                                          wbm::frame_pose(back, db, back.frame_index("hand"))),
             1e-12);
+}
+
+// A dof that drives its only body with a multiplier has no URDF joint to be: an error that
+// names it, not a file whose joint means another angle.
+TEST(Export, DofWithoutAnUnscaledBodyIsAnError) {
+  try {
+    wbm::export_urdf(welded_model(2.0));
+    ADD_FAILURE() << "exported";
+  } catch (const wbm::ModelError& e) {
+    EXPECT_NE(std::string(e.what()).find("dof 'shoulder' drives no body with multiplier 1 and offset 0"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 // A joint axis written with few digits (norm within 1 % of one) is normalised, as KDL and

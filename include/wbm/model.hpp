@@ -179,17 +179,21 @@ class ModelBuilder {
 std::array<Dof, 9> default_virtual_dofs(double height);
 
 /// Appends the nine virtual bodies (heel x, y, yaw; upper body x, y, z, roll, pitch, yaw)
-/// and their dofs, and records them as the model's virtual dofs. Returns the index of the last body (the upper body, named
-/// `upper_body_name`). The heel body is named "heel".
+/// and their dofs, and records them as the model's virtual dofs. Returns the index of the
+/// last body (the upper body, named `upper_body_name`). The heel body is named "heel".
+/// @param R_UR orientation of the upper body's own frame (a URDF root link) in the frame
+///   the virtual dofs move (x forward, y left, z up); the upper-body yaw dof still turns
+///   about the vertical. Identity unless the root link is turned (UrdfImportOptions::root_rpy).
 int add_virtual_base(ModelBuilder& builder, double height, const std::string& upper_body_name,
-                     const Inertial& heel, const Inertial& upper_body);
+                     const Inertial& heel, const Inertial& upper_body, const Matrix3& R_UR = Matrix3::Identity());
 
 /// `q` (nq) with the virtual dofs upright: the heel at the world origin facing along x, the
 /// upper body straight above it at the top of its height range (the root height given to
 /// the URDF import), neither shifted nor tilted; every other entry unchanged. This is the
 /// pose of a robot on a fixed base (e.g. a dual-arm robot on a pedestal), whose nine
 /// virtual dofs are then kept frozen (b_C = 0): its root link's origin at (0, 0, root
-/// height) [m] with the world's axes. Values outside a dof's range are clamped into it.
+/// height) [m] with the world's axes (turned by UrdfImportOptions::root_rpy, if given).
+/// Values outside a dof's range are clamped into it.
 /// @throws ModelError if q.size() != num_dofs().
 Eigen::VectorXd upright_base_configuration(const Model& model, const Eigen::VectorXd& q);
 

@@ -29,6 +29,12 @@ struct UrdfImportOptions {
   /// Height of the root link origin above the ground [m]. NaN: from the legs (the lowest
   /// leg link origin at zero joint values), else 1 m.
   double root_height = std::numeric_limits<double>::quiet_NaN();
+  /// Orientation of the root link in wbm's upper-body frame (x forward, y left, z up, REP
+  /// 103), as URDF roll, pitch, yaw [rad]: zero for a root link that follows REP 103;
+  /// (0, 0, pi) for one whose x axis points backward (iCub's root_link); (pi/2, 0, 0) for
+  /// one whose y axis points up. It sets where the robot faces: the home pose's lean, the
+  /// upright pose of a fixed base, the root height from the legs.
+  Vector3 root_rpy = Vector3::Zero();
   /// Joints whose URDF lacks a position range (lower == upper) or, if not a mimic joint, a
   /// speed limit are an error unless this is set; then revolute joints get [-pi, pi] and
   /// 2 rad/s, prismatic joints [-1, 1] m and 0.5 m/s.
@@ -63,6 +69,8 @@ struct UrdfExportOptions {
 };
 
 /// Writes a model as URDF (see UrdfExportOptions), named frames as fixed links.
+/// @throws ModelError if a dof drives bodies only through a multiplier other than 1 or an
+///   offset (possible in a ModelBuilder model, not in an imported URDF).
 std::string export_urdf(const Model& model, const UrdfExportOptions& options = {});
 
 }  // namespace wbm
