@@ -50,6 +50,11 @@ std::string render_report(const ScenarioRun& run) {
   for (int f = 0; f < model.num_frames(); ++f)
     if (used.count(f) || (model.frame(f).name != model.body(model.frame(f).body).name && model.num_frames() < 40))
       frames.push_back(f);
+  // The arrow drawn at each frame: the axis of the first axis task on it, else its z-axis.
+  std::vector<Vector3> drawn_axis(frames.size(), Vector3::UnitZ());
+  for (size_t i = 0; i < frames.size(); ++i)
+    for (auto t = s.tasks.rbegin(); t != s.tasks.rend(); ++t)
+      if (t->type == "axis" && model.frame_index(t->frame) == frames[i]) drawn_axis[i] = t->axis.normalized();
   json frame_list = json::array();
   for (int f : frames) frame_list.push_back({{"name", model.frame(f).name}});
   data["robot"] = {{"bodies", bodies}, {"frames", frame_list}};
@@ -62,11 +67,12 @@ std::string render_report(const ScenarioRun& run) {
     json bp = json::array(), fp = json::array(), fz = json::array();
     for (int b = 0; b < model.num_bodies(); ++b)
       for (int i = 0; i < 3; ++i) bp.push_back(d.X_WB[b].p[i]);
-    for (int f : frames) {
-      const Transform X = frame_pose(model, d, f);
+    for (size_t j = 0; j < frames.size(); ++j) {
+      const Transform X = frame_pose(model, d, frames[j]);
+      const Vector3 axis = X.R * drawn_axis[j];
       for (int i = 0; i < 3; ++i) {
         fp.push_back(X.p[i]);
-        fz.push_back(X.R(i, 2));
+        fz.push_back(axis[i]);
       }
     }
     body_pos.push_back(bp);

@@ -48,7 +48,7 @@ auto bound(const Scenario& s, int line, const std::string& field, Bind bind) {
 std::unique_ptr<TaskElement> make_element(const Model& model, const ScenarioTask& t) {
   std::unique_ptr<TaskElement> e;
   if (t.type == "position") e = std::make_unique<PositionTask>(model, t.name, t.frame, t.reference);
-  if (t.type == "axis") e = std::make_unique<AxisTask>(model, t.name, t.frame, t.reference);
+  if (t.type == "axis") e = std::make_unique<AxisTask>(model, t.name, t.frame, t.reference, t.axis);
   if (t.type == "attitude") e = std::make_unique<AttitudeTask>(model, t.name, t.frame, t.reference);
   if (t.type == "com") e = std::make_unique<CenterOfMassTask>(model, t.name, t.reference);
   if (t.type == "joints") e = std::make_unique<JointTask>(model, t.name, t.dofs);

@@ -270,7 +270,7 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
   for (size_t i = 0; i < tasks.size(); ++i) {
     const YAML::Node t = tasks[i];
     const std::string field = "tasks[" + std::to_string(i) + "]";
-    r.only(t, field, {"name", "type", "frame", "reference", "dofs", "gain", "filter", "active"});
+    r.only(t, field, {"name", "type", "frame", "reference", "axis", "dofs", "gain", "filter", "active"});
     ScenarioTask task;
     task.line = r.line(t);
     if (!t["name"]) r.fail(t, field + ".name", "missing");
@@ -285,6 +285,13 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
     if (needs_frame && !t["frame"]) r.fail(t, field + ".frame", "missing (the frame this " + task.type + " task moves)");
     if (t["frame"]) task.frame = r.text(t["frame"], field + ".frame");
     if (t["reference"]) task.reference = r.text(t["reference"], field + ".reference");
+    if (t["axis"]) {
+      if (task.type != "axis") r.fail(t["axis"], field + ".axis", "only for axis tasks (the axis in their frame)");
+      const Eigen::VectorXd axis = r.vector(t["axis"], field + ".axis");
+      if (axis.size() != 3 || !(axis.stableNorm() > 0.0 && std::isfinite(axis.stableNorm())))
+        r.fail(t["axis"], field + ".axis", "expected a non-zero direction [x, y, z] in the frame");
+      task.axis = axis;
+    }
     if (task.type == "joints") {
       if (!t["dofs"]) r.fail(t, field + ".dofs", "missing (the dofs of this joints task)");
       task.dofs = r.strings(t["dofs"], field + ".dofs");

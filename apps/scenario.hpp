@@ -27,6 +27,7 @@ struct ScenarioTask {
   std::string type;  ///< position | axis | attitude | com | joints
   std::string frame;
   std::string reference;  ///< "" = world
+  Vector3 axis = Vector3::UnitZ();  ///< axis tasks: the axis in the frame
   std::vector<std::string> dofs;  ///< joints tasks
   double gain = 10.0;
   FilterParameters filter;

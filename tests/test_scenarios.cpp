@@ -5,6 +5,9 @@
 
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
+#include "report_writer.hpp"
 #include "runner.hpp"
 #include "scenario.hpp"
 #include "shipped_models.hpp"
@@ -241,6 +244,39 @@ TEST(Walking, TargetMovingWhileWalking) {
 }
 
 /// Every shipped scenario runs cleanly and writes its three (or four) files.
+// An axis task with `axis` (G1's camera link looks along x): the view converges, and the
+// report draws that axis at the frame (its arrow ends on the target direction), not z.
+TEST(Scenarios, AxisTaskWithAnAxisInItsFrameConvergesAndIsDrawn) {
+  const std::string g1 = wbm_test::shipped_model("g1_29dof").path;
+  const Scenario s = parse_scenario("name: gaze\nrobot: {urdf: '" + g1 +
+                                        "', legs: [left_hip_pitch_link, right_hip_pitch_link]}\n"
+                                        "duration: 3\nfrozen: [heel_x, heel_y, heel_yaw]\n"
+                                        "tasks: [{name: view, type: axis, frame: d435_link, axis: [1, 0, 0]}]\n"
+                                        "timeline: [{t: 0.1, activate: [view], targets: {view: [1, 0.6, -0.2]}}]\n",
+                                    "gaze.yaml", ".");
+  const auto run = run_scenario(s);
+  const Vector3 target = Vector3(1, 0.6, -0.2).normalized();
+  Data data(*run->model);
+  forward_kinematics(*run->model, data, run->controller->q());
+  const Vector3 view = frame_pose(*run->model, data, run->model->frame_index("d435_link")).R.col(0);
+  EXPECT_LT(std::acos(std::min(1.0, view.dot(target))), 1e-3) << view.transpose();
+
+  const std::string page = render_report(*run);
+  const std::string tmpl = report_template();
+  const size_t hole = tmpl.find("__WBM_REPORT_DATA__");
+  const std::string after = tmpl.substr(hole + 19, 40);
+  const size_t begin = page.find(tmpl.substr(hole - 40, 40)) + 40;
+  const nlohmann::json report = nlohmann::json::parse(page.substr(begin, page.find(after, begin) - begin));
+  const std::vector<double> drawn = report["frame_z"].back();
+  const auto& frames = report["robot"]["frames"];
+  int index = -1;
+  for (size_t i = 0; i < frames.size(); ++i)
+    if (frames[i]["name"] == "d435_link") index = static_cast<int>(i);
+  ASSERT_GE(index, 0);
+  const Vector3 arrow(drawn[3 * index], drawn[3 * index + 1], drawn[3 * index + 2]);
+  EXPECT_LT((arrow - view).norm(), 1e-6) << arrow.transpose();
+}
+
 TEST(Scenarios, EveryShippedScenarioRunsAndWritesItsOutputs) {
   namespace fs = std::filesystem;
   const fs::path out = fs::temp_directory_path() / "wbm_scenarios_test";
@@ -316,6 +352,12 @@ TEST(Scenarios, BadFilesNameTheLineAndField) {
       {"name: x\ntasks:\n  - {name: a, type: position, frame: f}\n  - {name: a, type: axis, frame: f}\n", "bad.yaml:4: tasks[1].name: duplicate element name 'a'"},
       {"name: x\ntasks: [{name: a, type: position, frame: f}]\ntimeline:\n  - {targets: {a: [1, 2, 3]}}\n", "bad.yaml:4: timeline[0].t: missing"},
       {"name: x\nrobot: {builtin: asimo}\ntasks: [{name: a, type: position, frame: f}]\n", "bad.yaml:2: robot.builtin: expected 'paper'"},
+      {"name: x\ntasks:\n  - {name: a, type: axis, frame: f, axis: [0, 0]}\n",
+       "bad.yaml:3: tasks[0].axis: expected a non-zero direction [x, y, z] in the frame"},
+      {"name: x\ntasks:\n  - {name: a, type: axis, frame: f, axis: [0, 0, 0]}\n",
+       "bad.yaml:3: tasks[0].axis: expected a non-zero direction [x, y, z] in the frame"},
+      {"name: x\ntasks:\n  - name: a\n    type: position\n    frame: f\n    axis: [1, 0, 0]\n",
+       "bad.yaml:6: tasks[0].axis: only for axis tasks"},
       {"name: x\nrobot:\n  builtin: paper\n  root_height: 0.8\ntasks: [{name: a, type: position, frame: f}]\n",
        "bad.yaml:4: robot.root_height: an option of the URDF import; the built-in paper model takes none"},
       {"name: x\nrobot: {builtin: paper, urdf: g1.urdf}\ntasks: [{name: a, type: position, frame: f}]\n",

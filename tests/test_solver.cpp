@@ -19,6 +19,7 @@
 #include "wbm/tasks/com_task.hpp"
 #include "wbm/tasks/joint_task.hpp"
 #include "wbm/tasks/position_task.hpp"
+#include "wbm/urdf_import.hpp"
 
 #include "dot_kernels.hpp"  // internal (src/)
 
@@ -359,6 +360,65 @@ TEST_P(EveryModel, AxisJacobianMatchesFiniteDifferencesOfPhiAndAxis) {
     const double dphi = (phi_heel(q + h * v) - phi_heel(q - h * v)) / (2 * h);
     // Rotating about e_y moves a_g towards a_t: d(phi)/dt = -row_y q_dot.
     ASSERT_NEAR(dphi, -(J.row(1) * v)(0), 1e-6) << entry.id << " case " << c;
+  }
+}
+
+// An axis given in the frame (a camera link that looks along x) is the z-axis of that frame
+// turned so that its z is the axis and its y the fallback: written as such a frame in the
+// URDF, the two elements must agree in value, rows, error and rate, also where the target is
+// along or against the axis (the fallback y). G1's d435_link looks along x.
+TEST(AxisTask, AnAxisInTheFrameIsTheZAxisOfATurnedFrame) {
+  const wbm_test::ShippedModel& g1 = wbm_test::shipped_model("g1_29dof");
+  const std::string original = wbm_test::read_file(g1.path);
+  for (const Vector3& axis : {Vector3(1.0, 0.0, 0.0), Vector3(1.0, 2.0, -0.5), Vector3(0.0, -3.0, 0.0)}) {
+    const Vector3 z = axis.normalized();
+    Vector3 y = Vector3::UnitY() - z.y() * z;
+    if (y.norm() < 1e-6) y = Vector3::UnitZ() - z.z() * z;
+    y.normalize();
+    Matrix3 R;
+    R << y.cross(z), y, z;
+    const Vector3 rpy = rpy_from_rotation(R);
+    std::ostringstream link;
+    link.precision(17);
+    link << "  <link name=\"turned_camera\"/>\n  <joint name=\"turned_camera_joint\" type=\"fixed\">\n"
+         << "    <parent link=\"d435_link\"/>\n    <child link=\"turned_camera\"/>\n"
+         << "    <origin xyz=\"0 0 0\" rpy=\"" << rpy.transpose() << "\"/>\n  </joint>\n</robot>";
+    std::string text = original;
+    text.replace(text.rfind("</robot>"), 8, link.str());
+    const Model model = parse_urdf(text, g1.options, "g1_turned_camera.urdf");
+    Data data(model);
+    AxisTask given(model, "given", "d435_link", "heel", 2.5 * axis);  // any length
+    AxisTask turned(model, "turned", "turned_camera", "heel");
+    std::mt19937_64 rng(23);
+    MatrixXd Jg(2, model.num_dofs()), Jt(2, model.num_dofs());
+    VectorXd eg(2), et(2), rg(2), rt(2), xg(3), xt(3);
+    for (int c = 0; c < 200; ++c) {
+      forward_kinematics(model, data, wbm_test::random_configuration(model, rng));
+      given.value(model, data, xg);
+      turned.value(model, data, xt);
+      ASSERT_LT((xg - xt).cwiseAbs().maxCoeff(), 1e-12) << axis.transpose();
+      // Random targets, and every tenth along or against the current axis.
+      Vector3 target = wbm_test::random_direction(3, rng);
+      if (c % 10 == 1) target = xt;
+      if (c % 10 == 2) target = -xt;
+      const Vector3 rate = wbm_test::random_direction(3, rng);
+      given.evaluate(model, data, target, rate, Jg, eg, rg);
+      turned.evaluate(model, data, target, rate, Jt, et, rt);
+      ASSERT_LT((Jg - Jt).cwiseAbs().maxCoeff(), 1e-9) << axis.transpose() << " case " << c;
+      ASSERT_LT((eg - et).cwiseAbs().maxCoeff(), 1e-9) << axis.transpose() << " case " << c;
+      ASSERT_LT((rg - rt).cwiseAbs().maxCoeff(), 1e-9) << axis.transpose() << " case " << c;
+    }
+  }
+  const Model model = g1.load();
+  for (const Vector3& bad : {Vector3(0.0, 0.0, 0.0), Vector3(std::nan(""), 0.0, 1.0), Vector3(INFINITY, 0.0, 0.0)}) {
+    try {
+      AxisTask task(model, "view", "d435_link", "", bad);
+      ADD_FAILURE() << bad.transpose() << " accepted";
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("axis task 'view': the axis in frame 'd435_link' must be a finite, non-zero"),
+                std::string::npos)
+          << e.what();
+    }
   }
 }
 

@@ -2,16 +2,33 @@
 
 #include <cmath>
 
+#include "wbm/errors.hpp"
+
 #include "../fast_trig.hpp"
 #include "../zero_block.hpp"
 
 namespace wbm {
 
-AxisTask::AxisTask(const Model& model, std::string name, const std::string& frame, const std::string& reference)
-    : TaskElement(std::move(name), 2, 3, TargetKind::kDirection), frame_(model, frame, reference) {}
+AxisTask::AxisTask(const Model& model, std::string name, const std::string& frame, const std::string& reference,
+                   const Vector3& axis)
+    : TaskElement(std::move(name), 2, 3, TargetKind::kDirection), frame_(model, frame, reference) {
+  const double norm = axis.stableNorm();
+  if (!(norm > 0.0 && std::isfinite(norm)))
+    throw ConfigError("axis task '" + this->name() + "': the axis in frame '" + frame +
+                      "' must be a finite, non-zero vector");
+  a_F_ = axis / norm;
+  z_axis_ = a_F_ == Vector3::UnitZ();
+  // The fallback y: the frame's y-axis made perpendicular to the axis (y itself for z).
+  y_F_ = Vector3::UnitY() - a_F_.y() * a_F_;
+  if (y_F_.norm() < 1e-6) y_F_ = Vector3::UnitZ() - a_F_.z() * a_F_;
+  y_F_.normalize();
+}
 
 void AxisTask::value(const Model& model, const Data& data, Eigen::Ref<Eigen::VectorXd> x) {
-  x = frame_.z_axis(model, data);
+  if (z_axis_)
+    x = frame_.z_axis(model, data);
+  else
+    x = frame_.pose(model, data).R * a_F_;
 }
 
 Matrix3 AxisTask::sl_frame(const Vector3& a_g, const Vector3& a_t, const Vector3& fallback_y, double* phi) {
@@ -61,7 +78,8 @@ void AxisTask::evaluate(const Model& model, const Data& data, const Eigen::Ref<c
   const Matrix3 R_RF = frame_.pose(model, data).R;
   const Vector3 a_t = target.head<3>();
   double phi = 0.0;
-  const Matrix3 R_sl = sl_frame(R_RF.col(2), a_t, R_RF.col(1), &phi);
+  const Matrix3 R_sl = z_axis_ ? sl_frame(R_RF.col(2), a_t, R_RF.col(1), &phi)
+                               : sl_frame(R_RF * a_F_, a_t, R_RF * y_F_, &phi);
   // eq. (18): rows x and y of A_sl-I * J_R. The relative angular velocity in the reference
   // frame is R_WR^T (w_F - w_R), so the rows are P (w_F - w_R) with P = R_sl^T R_WR^T (rows
   // x, y); the joints the frame and the reference share cancel.

@@ -17,11 +17,12 @@
  *         when shorter than 1 mm); a small sphere marks every body origin.
  *     "frames": [{"name": "l_hand_ref"}, ...]
  *         named frames: a small sphere at the origin and a 0.1 m arrow along
- *         the frame's z-axis (grasp / view axis).
+ *         frame_z (grasp / view axis).
  *   },
  *   "body_pos":  [[x0,y0,z0, x1,y1,z1, ...], ...]   N rows of 3*nbodies; world, metres, z up
  *   "frame_pos": [[...], ...]                        N rows of 3*nframes
- *   "frame_z":   [[...], ...]                        N rows of 3*nframes, unit z-axis of each frame
+ *   "frame_z":   [[...], ...]                        N rows of 3*nframes, unit axis of each frame: its
+ *                                                    z-axis, or the axis of the axis task on it
  *   "targets": [{"name": "r_hand position", "kind": "position" | "axis",
  *                "frame": 1,                          index into robot.frames
  *                "values": [[x,y,z] or null, ...]}]   N entries, null while inactive
@@ -475,7 +476,7 @@
     };
     if (data.robot.bodies.length) add(COLORS.link, 'links / body origins');
     if (data.robot.frames.length) {
-      add(COLORS.frame, 'frames: ' + data.robot.frames.map((f) => f.name).join(', ') + ' (z-axis)');
+      add(COLORS.frame, 'frames: ' + data.robot.frames.map((f) => f.name).join(', ') + ' (z-axis or task axis)');
     }
     const targetRows = data.targets.map((target) => add(
       target.kind === 'position' ? COLORS.targetPosition : COLORS.targetAxis,
