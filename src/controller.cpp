@@ -15,13 +15,14 @@ Controller::Controller(const Model& model, const SolverParameters& solver)
       q_(model.home()), qdot_(Eigen::VectorXd::Zero(model.num_dofs())), q_next_(model.home()),
       gradient_(Eigen::VectorXd::Zero(model.num_dofs())) {
   WholeBodySolver check(model, 0, solver);  // validates the parameters now
+  stack_.controller_owned_ = true;
 }
 
 int Controller::add_task(std::unique_ptr<TaskElement> element, const FilterParameters& filter) {
   if (!element) throw ConfigError("controller: null task element");
   TrajectoryFilter f(element->target_kind(), element->target_dim(), filter);
   needs_center_of_mass_ = needs_center_of_mass_ || element->needs_center_of_mass();
-  const int index = stack_.add(std::move(element));
+  const int index = stack_.add_element(std::move(element));
   filters_.push_back(std::move(f));
   solver_.reset();
   return index;
@@ -46,12 +47,6 @@ void Controller::update_kinematics() {
 
 void Controller::reset(const Eigen::VectorXd& q) {
   model_.check_configuration(q);
-  // tasks() is mutable (elements, activation), so TaskStack::add() is reachable; such an
-  // element would have no trajectory filter.
-  if (static_cast<int>(filters_.size()) != stack_.num_elements())
-    throw ConfigError("controller: task element '" + stack_.element(static_cast<int>(filters_.size())).name() +
-                      "' was added with tasks().add(); add elements with Controller::add_task(), which also "
-                      "gives them their trajectory filter");
   solver_ = std::make_unique<WholeBodySolver>(model_, stack_.num_rows(), solver_parameters_);
   q_ = q;
   q_next_ = q;
@@ -84,8 +79,7 @@ Command Controller::make_command() const {
 ControllerStatus Controller::update(const Command& command, double dt) {
   ControllerStatus status;
   const int nt = stack_.num_targets();
-  // values_ has the targets of the elements at reset(); more means an element added since.
-  if (!solver_ || values_.size() != nt || !(std::isfinite(dt) && dt > 0.0) || command.targets.size() != nt ||
+  if (!solver_ || !(std::isfinite(dt) && dt > 0.0) || command.targets.size() != nt ||
       command.task_active.size() != stack_.num_rows() || command.free_dofs.size() != model_.num_dofs() ||
       (command.external_velocity.size() != 0 && command.external_velocity.size() != model_.num_dofs()) ||
       !command.external_velocity.allFinite()) {

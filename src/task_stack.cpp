@@ -7,6 +7,14 @@ namespace wbm {
 TaskStack::TaskStack(const Model& model) : nq_(model.num_dofs()) {}
 
 int TaskStack::add(std::unique_ptr<TaskElement> element) {
+  if (controller_owned_)
+    throw ConfigError("task stack: element '" + (element ? element->name() : std::string("(null)")) +
+                      "' added to a controller's stack with tasks().add(); use Controller::add_task(), which also "
+                      "gives it its trajectory filter");
+  return add_element(std::move(element));
+}
+
+int TaskStack::add_element(std::unique_ptr<TaskElement> element) {
   if (!element) throw ConfigError("task stack: null task element");
   for (const auto& e : elements_)
     if (e->name() == element->name()) throw ConfigError("task stack: duplicate task element '" + element->name() + "'");

@@ -33,7 +33,7 @@ struct Command {
 
 /// Flags of a controller cycle beyond the solver's (SolverFlag).
 enum ControllerFlag : std::uint32_t {
-  kInvalidCommand = 1u << 16,  ///< Wrong sizes or dt, or no reset() since the last element: nothing moved, state kept.
+  kInvalidCommand = 1u << 16,  ///< Wrong sizes or dt, or no reset() since add_task(): nothing moved, state kept.
   kInvalidTarget = 1u << 17,   ///< NaN/inf or zero-direction target: that element keeps its previous target.
 };
 
@@ -78,9 +78,8 @@ class Controller {
 
   const Model& model() const { return model_; }
   const Data& data() const { return data_; }
-  /// The elements and their activation. Add elements with add_task() only: one added with
-  /// tasks().add() has no trajectory filter, so reset() throws ConfigError and update()
-  /// returns kInvalidCommand.
+  /// The elements and their activation. Add elements with add_task(): tasks().add() throws
+  /// ConfigError (the element would have no trajectory filter).
   TaskStack& tasks() { return stack_; }
   const TaskStack& tasks() const { return stack_; }
   /// @pre reset() was called.

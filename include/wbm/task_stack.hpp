@@ -21,7 +21,8 @@ class TaskStack {
   explicit TaskStack(const Model& model);
 
   /// Adds an element (setup time; allocates). Returns its index. All rows start active.
-  /// @throws ConfigError on a duplicate name.
+  /// @throws ConfigError on a duplicate name, or on a controller's stack (Controller::tasks()):
+  ///   add those with Controller::add_task(), which also gives them a trajectory filter.
   int add(std::unique_ptr<TaskElement> element);
 
   int num_elements() const { return static_cast<int>(elements_.size()); }
@@ -63,6 +64,10 @@ class TaskStack {
   const std::vector<int>& active_row_indices() const { return active_index_; }
 
  private:
+  friend class Controller;  // adds its elements with their filters; add() refuses others
+  int add_element(std::unique_ptr<TaskElement> element);
+
+  bool controller_owned_ = false;
   std::vector<std::unique_ptr<TaskElement>> elements_;
   std::vector<int> row_offset_, target_offset_;
   Mask activation_;
