@@ -1,5 +1,6 @@
 #include "report_writer.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 
@@ -52,9 +53,10 @@ std::string render_report(const ScenarioRun& run) {
       frames.push_back(f);
   // The arrow drawn at each frame: the axis of the first axis task on it, else its z-axis.
   std::vector<Vector3> drawn_axis(frames.size(), Vector3::UnitZ());
-  for (size_t i = 0; i < frames.size(); ++i)
-    for (auto t = s.tasks.rbegin(); t != s.tasks.rend(); ++t)
-      if (t->type == "axis" && model.frame_index(t->frame) == frames[i]) drawn_axis[i] = t->axis.normalized();
+  for (auto t = s.tasks.rbegin(); t != s.tasks.rend(); ++t)
+    if (t->type == "axis")  // its frame is one of `frames` (the tasks' frames are)
+      drawn_axis[std::find(frames.begin(), frames.end(), model.frame_index(t->frame)) - frames.begin()] =
+          t->axis.normalized();
   json frame_list = json::array();
   for (int f : frames) frame_list.push_back({{"name", model.frame(f).name}});
   data["robot"] = {{"bodies", bodies}, {"frames", frame_list}};
