@@ -40,10 +40,28 @@ std::string render_report(const ScenarioRun& run) {
   for (int k : samples) time.push_back(run.time[k]);
   data["time"] = time;
 
-  // Robot: the bodies from the upper body on (the virtual heel/upper-body chain is drawn
-  // as one link from the heel), and the frames the tasks use plus non-body named frames.
+  // Robot: the links drawn are the bodies (the virtual heel/upper-body chain is drawn as one
+  // link from the heel) and the welded frames (URDF links folded into a body: locked legs,
+  // heads, sensors, hand points), each from the frame it hangs from (Frame::parent) or its
+  // body's origin. Node b is body b; the welded frames follow. Also the frames the tasks use
+  // and, on small models, every non-body frame, with their axes.
+  const int nb = model.num_bodies();
+  std::vector<int> node_of_frame(model.num_frames()), welded;
+  for (int f = 0; f < model.num_frames(); ++f) {
+    const Frame& frame = model.frame(f);
+    const bool own = frame.name == model.body(frame.body).name;
+    node_of_frame[f] = own ? frame.body : nb + static_cast<int>(welded.size());
+    if (!own) welded.push_back(f);
+  }
   json bodies = json::array();
-  for (const Body& b : model.bodies()) bodies.push_back({{"name", b.name}, {"parent", b.parent}});
+  for (int b = 0; b < nb; ++b) {
+    const int parent = model.frame(model.frame_index(model.body(b).name)).parent;
+    bodies.push_back({{"name", model.body(b).name}, {"parent", parent >= 0 ? node_of_frame[parent] : model.body(b).parent}});
+  }
+  for (int f : welded) {
+    const Frame& frame = model.frame(f);
+    bodies.push_back({{"name", frame.name}, {"parent", frame.parent >= 0 ? node_of_frame[frame.parent] : frame.body}});
+  }
   std::vector<int> frames;
   std::set<int> used;
   for (const ScenarioTask& t : s.tasks)
@@ -67,8 +85,12 @@ std::string render_report(const ScenarioRun& run) {
   for (int k : samples) {
     forward_kinematics(model, d, run.q[k]);
     json bp = json::array(), fp = json::array(), fz = json::array();
-    for (int b = 0; b < model.num_bodies(); ++b)
+    for (int b = 0; b < nb; ++b)
       for (int i = 0; i < 3; ++i) bp.push_back(d.X_WB[b].p[i]);
+    for (int f : welded) {
+      const Vector3 p = frame_position(model, d, f);
+      for (int i = 0; i < 3; ++i) bp.push_back(p[i]);
+    }
     for (size_t j = 0; j < frames.size(); ++j) {
       const Transform X = frame_pose(model, d, frames[j]);
       const Vector3 axis = X.R * drawn_axis[j];

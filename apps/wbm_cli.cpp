@@ -87,7 +87,9 @@ int model_info(ModelSource& source, bool as_json) {
     out["dofs"] = dofs;
     json frames = json::array();
     for (const wbm::Frame& f : model.frames())
-      frames.push_back({{"name", f.name}, {"body", model.body(f.body).name}, {"offset", {f.X_BF.p.x(), f.X_BF.p.y(), f.X_BF.p.z()}}});
+      frames.push_back({{"name", f.name}, {"body", model.body(f.body).name},
+                        {"parent", f.parent >= 0 ? json(model.frame(f.parent).name) : json(nullptr)},
+                        {"offset", {f.X_BF.p.x(), f.X_BF.p.y(), f.X_BF.p.z()}}});
     out["frames"] = frames;
     std::cout << out.dump(2) << "\n";
     return 0;
@@ -103,8 +105,12 @@ int model_info(ModelSource& source, bool as_json) {
               << std::right << std::setw(9) << d.lower << "  " << std::setw(9) << d.upper << "  " << std::setw(9)
               << d.max_speed << "  " << std::setw(9) << d.work_range << "\n";
   }
-  std::cout << "\nframes (body):";
-  for (const wbm::Frame& f : model.frames()) std::cout << "\n  " << f.name << " (" << model.body(f.body).name << ")";
+  std::cout << "\nframes (body, and the frame it hangs from where given):";
+  for (const wbm::Frame& f : model.frames()) {
+    std::cout << "\n  " << f.name << " (" << model.body(f.body).name;
+    if (f.parent >= 0) std::cout << ", from " << model.frame(f.parent).name;
+    std::cout << ")";
+  }
   std::cout << "\n";
   return 0;
 }

@@ -151,6 +151,12 @@ int ModelBuilder::add_frame(const Frame& frame) {
   return static_cast<int>(model_.frames_.size()) - 1;
 }
 
+void ModelBuilder::set_frame_parent(int frame, int parent) {
+  if (frame < 0 || frame >= num_frames())
+    throw ModelError("set_frame_parent: frame index " + std::to_string(frame) + " is not an added frame");
+  model_.frames_[frame].parent = parent;
+}
+
 Model ModelBuilder::build() {
   Model& m = model_;
   const int nq = m.num_dofs();
@@ -234,6 +240,24 @@ Model ModelBuilder::build() {
       msg << "frame " << quoted(f.name) << ": offset is not finite or reaches beyond " << kMaxLength << " m";
       throw ModelError(msg.str());
     }
+  }
+  const int nf = m.num_frames();
+  for (int i = 0; i < nf; ++i) {
+    const Frame& f = m.frames_[i];
+    if (f.parent == -1) continue;
+    if (f.parent < -1 || f.parent >= nf || f.parent == i)
+      throw ModelError("frame " + quoted(f.name) + ": parent frame index " + std::to_string(f.parent) +
+                       " is not -1 or the index of another frame");
+    // A body's own frame hangs from a frame of the parent body, any other from one of its body.
+    const bool own = f.name == m.bodies_[f.body].name;
+    const int expected = own ? m.bodies_[f.body].parent : f.body;
+    const Frame& p = m.frames_[f.parent];
+    if (p.body != expected)
+      throw ModelError("frame " + quoted(f.name) + ": parent frame " + quoted(p.name) + " is on body " +
+                       quoted(m.bodies_[p.body].name) + ", expected a frame on " +
+                       (expected < 0 ? std::string("no body (the root body's frame has no parent)")
+                                     : quoted(m.bodies_[expected].name) +
+                                           (own ? " (the parent of the frame's body)" : " (the frame's body)")));
   }
 
   m.axis_code_.assign(nb, 0);

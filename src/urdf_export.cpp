@@ -50,6 +50,15 @@ std::string export_urdf(const Model& model, const UrdfExportOptions& options) {
   const int root = whole_tree ? -1 : (v.upper_body >= 0 ? v.upper_body : 0);
   const std::string root_link = whole_tree ? unused_link_name(model, "world") : model.body(root).name;
   auto link_name = [&](int body) { return body < 0 ? root_link : model.body(body).name; };
+  // The link a joint hangs from and the joint's origin in it: the frame given as Frame::parent
+  // (a welded link of the source URDF) or, if none, the body's link. `X_B` is the origin in
+  // the parent frame's body.
+  auto hang = [&](const Frame& f, int body, const Transform& X_B) -> std::pair<std::string, Transform> {
+    if (f.parent < 0) return {link_name(body), X_B};
+    const Frame& p = model.frame(f.parent);
+    const bool own = p.name == model.body(p.body).name;
+    return {own ? link_name(p.body) : p.name, p.X_BF.inverse() * X_B};
+  };
   std::ostringstream out;
   out << std::setprecision(17);
   out << "<?xml version=\"1.0\"?>\n<!-- Written by wbm from model '" << model.name() << "'. ";
@@ -94,18 +103,18 @@ std::string export_urdf(const Model& model, const UrdfExportOptions& options) {
     out << "  <link name=\"" << body.name << "\">\n";
     write_inertial(out, body.inertial);
     out << "  </link>\n";
+    const auto [parent_link, X_PJ] = hang(model.frame(model.frame_index(body.name)), body.parent, body.X_PJ);
     if (body.dof < 0) {  // welded to its parent
-      out << "  <joint name=\"" << body.name << "_joint\" type=\"fixed\">\n    <parent link=\""
-          << link_name(body.parent) << "\"/>\n    <child link=\"" << body.name << "\"/>\n    "
-          << origin(body.X_PJ) << "\n  </joint>\n";
+      out << "  <joint name=\"" << body.name << "_joint\" type=\"fixed\">\n    <parent link=\"" << parent_link
+          << "\"/>\n    <child link=\"" << body.name << "\"/>\n    " << origin(X_PJ) << "\n  </joint>\n";
       continue;
     }
     const Dof& dof = model.dof(body.dof);
     const bool primary = primary_body[body.dof] == b;
     const char* type = dof.continuous ? "continuous" : to_string(body.joint_type);
     out << "  <joint name=\"" << (primary ? dof.name : body.name + "_joint") << "\" type=\"" << type
-        << "\">\n    <parent link=\"" << link_name(body.parent) << "\"/>\n    <child link=\"" << body.name
-        << "\"/>\n    " << origin(body.X_PJ) << "\n    <axis xyz=\"" << vec(body.axis) << "\"/>\n    <limit lower=\""
+        << "\">\n    <parent link=\"" << parent_link << "\"/>\n    <child link=\"" << body.name
+        << "\"/>\n    " << origin(X_PJ) << "\n    <axis xyz=\"" << vec(body.axis) << "\"/>\n    <limit lower=\""
         << (dof.continuous ? 0.0 : dof.lower) << "\" upper=\"" << (dof.continuous ? 0.0 : dof.upper)
         << "\" effort=\"0\" velocity=\"" << dof.max_speed << "\"/>\n";
     if (!primary)
@@ -115,9 +124,9 @@ std::string export_urdf(const Model& model, const UrdfExportOptions& options) {
   }
   for (const Frame& f : model.frames()) {
     if (f.name == model.body(f.body).name || f.body < root) continue;
+    const auto [parent_link, X_PF] = hang(f, f.body, f.X_BF);
     out << "  <link name=\"" << f.name << "\"/>\n  <joint name=\"" << f.name << "_joint\" type=\"fixed\">\n    <parent link=\""
-        << model.body(f.body).name << "\"/>\n    <child link=\"" << f.name << "\"/>\n    " << origin(f.X_BF)
-        << "\n  </joint>\n";
+        << parent_link << "\"/>\n    <child link=\"" << f.name << "\"/>\n    " << origin(X_PF) << "\n  </joint>\n";
   }
   out << "</robot>\n";
   return out.str();

@@ -414,11 +414,13 @@ class TreeBuilder {
     BodySpec spec;
     spec.body.name = root;
     specs_.push_back(spec);
-    visit(root, 0, Transform::Identity(), Transform{R_UR, Vector3::Zero()}, nullptr, Mode::kNormal);
+    visit(root, 0, Transform::Identity(), Transform{R_UR, Vector3::Zero()}, nullptr, Mode::kNormal, "");
   }
 
   std::vector<BodySpec> specs_;
   std::vector<Frame> frames_;
+  /// Frame (link or reversed joint's body) -> the frame it hangs from (Frame::parent).
+  std::map<std::string, std::string> parent_of_;
   double lowest_leg_z_ = std::numeric_limits<double>::infinity();
 
  private:
@@ -426,11 +428,13 @@ class TreeBuilder {
 
   /// X_BL: pose of the link in its body; X_RL: pose of the link in the upper-body frame
   /// (the root link turned by root_rpy) at zero joint values (for the root height, also
-  /// when legs hang below reversed joints).
+  /// when legs hang below reversed joints). `parent`: the frame the link hangs from ("" for
+  /// the root).
   void visit(const std::string& link_name, int body, const Transform& X_BL, const Transform& X_RL,
-             const JointInfo* from, Mode mode) {
+             const JointInfo* from, Mode mode, const std::string& parent) {
     const urdf::Link& link = *urdf_.links_.at(link_name);
     if (mode != Mode::kDropped) {
+      if (!parent.empty()) parent_of_[link_name] = parent;
       if (!(specs_[body].body.name == link_name && X_BL.p.isZero() && X_BL.R.isIdentity()))
         frames_.push_back({link_name, body, X_BL});
       merge_inertial(specs_[body].body.inertial, link_inertial(link, X_BL));
@@ -462,7 +466,7 @@ class TreeBuilder {
       const Transform X_RO = X_RL * (forward ? X_PC : X_PC.inverse());
       if (joint.type == urdf::Joint::FIXED || child_mode != Mode::kNormal) {
         // Welded: fixed joint or locked leg at joint value 0.
-        visit(other, body, X_BL * (forward ? X_PC : X_PC.inverse()), X_RO, info, child_mode);
+        visit(other, body, X_BL * (forward ? X_PC : X_PC.inverse()), X_RO, info, child_mode, link_name);
         continue;
       }
       BodySpec spec;
@@ -484,7 +488,11 @@ class TreeBuilder {
         X_BO = X_PC0.inverse();
       }
       specs_.push_back(spec);
-      visit(other, static_cast<int>(specs_.size()) - 1, X_BO, X_RO, info, Mode::kNormal);
+      // The body's frame hangs from this link; the other link is that frame (forward) or hangs
+      // from it (reversed: the body's frame is the joint's).
+      parent_of_[spec.body.name] = link_name;
+      visit(other, static_cast<int>(specs_.size()) - 1, X_BO, X_RO, info, Mode::kNormal,
+            forward ? link_name : spec.body.name);
     }
   }
 
@@ -620,6 +628,7 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
   check_virtual_names(checker, tree, height);
   ModelBuilder builder(urdf->getName());
   const int ub = add_virtual_base(builder, height, root, Inertial{}, tree.specs_[0].body.inertial, R_UR);
+  std::map<std::string, int> frame_index{{root, builder.num_frames() - 1}};  // the root body's, added last
   // Number the dofs in body order; mimic joints share their master's dof.
   std::map<std::string, int> dof_of_joint;
   for (const BodySpec& spec : tree.specs_)
@@ -642,11 +651,13 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
       body.dof = dof_of_joint.at(joint.name);
     }
     builder.add_body(body);
+    frame_index[body.name] = builder.num_frames() - 1;
   }
   for (Frame frame : tree.frames_) {
     frame.body = frame.body == 0 ? ub : ub + frame.body;
-    builder.add_frame(frame);
+    frame_index[frame.name] = builder.add_frame(frame);
   }
+  for (const auto& [name, parent] : tree.parent_of_) builder.set_frame_parent(frame_index.at(name), frame_index.at(parent));
   try {
     return builder.build();
   } catch (const ModelError& e) {

@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <iterator>
+#include <map>
 #include <sstream>
 #include <string>
 
@@ -64,6 +65,14 @@ TEST(Cli, ModelInfoJson) {
   bool hand = false;
   for (const json& f : j["frames"]) hand |= f["name"] == "l_hand_ref";
   EXPECT_TRUE(hand);
+  // Frame::parent: G1's locked legs hang link from link (null where not given).
+  const json g1 = parse(wbm_cli("model info --json " + wbm_test::shipped_model("g1_29dof").path +
+                                " --legs left_hip_pitch_link,right_hip_pitch_link"));
+  std::map<std::string, json> parent;
+  for (const json& f : g1["frames"]) parent[f["name"]] = f["parent"];
+  EXPECT_EQ(parent.at("left_knee_link"), "left_hip_yaw_link");
+  EXPECT_EQ(parent.at("left_shoulder_pitch_link"), "torso_link");
+  EXPECT_TRUE(parent.at("pelvis").is_null());
 }
 
 TEST(Cli, ModelFkWithJacobianMatchesTheLibrary) {

@@ -16,6 +16,7 @@
 #include <iostream>
 #include <map>
 #include <random>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -240,6 +241,51 @@ TEST_P(KdlComparison, PosesAndJacobiansMatchKdl) {
     }
   }
   compare_with_kdl(entry.id, model, tree, read_mimics(urdf::parseURDFFile(entry.path), entry.path), false, dropped);
+}
+
+// Frame::parent draws the robot: every frame hangs from the frame of the link next to it in
+// the URDF. Checked against urdfdom's joints (an undirected tree: re-rooting reverses
+// joints): the edges between our frames are exactly the URDF joints between links we keep. A
+// reversed joint's body (named after the joint) stands between its two links: it is merged
+// into the frame it hangs from, which leaves the URDF's edge.
+TEST_P(KdlComparison, FrameParentsAreTheUrdfJoints) {
+  const ShippedModel& entry = GetParam();
+  const Model model = entry.load();
+  const urdf::ModelInterfaceSharedPtr urdf = urdf::parseURDFFile(entry.path);
+  ASSERT_TRUE(urdf) << entry.path;
+  const int first = model.virtual_dofs().upper_body;  // frames before it are the virtual chain's
+  auto is_link = [&](int f) { return urdf->links_.count(model.frame(f).name) > 0; };
+  // A frame that is a URDF link, following reversed joints' bodies up to their parents.
+  std::function<int(int)> link_of = [&](int f) {
+    if (is_link(f)) return f;
+    EXPECT_GE(model.frame(f).parent, 0) << entry.id << ": frame " << model.frame(f).name
+                                        << " is neither a URDF link nor hangs from one";
+    return model.frame(f).parent >= 0 ? link_of(model.frame(f).parent) : f;
+  };
+  std::set<std::pair<std::string, std::string>> ours, expected;
+  auto edge = [](const std::string& a, const std::string& b) { return a < b ? std::pair(a, b) : std::pair(b, a); };
+  for (int f = 0; f < model.num_frames(); ++f) {
+    const wbm::Frame& frame = model.frame(f);
+    if (frame.body < first) {
+      EXPECT_EQ(frame.parent, -1) << entry.id << ": virtual frame " << frame.name;
+      continue;
+    }
+    if (frame.parent < 0) {
+      EXPECT_EQ(frame.name, model.body(first).name) << entry.id << ": only the root link hangs from nothing";
+      continue;
+    }
+    const int a = link_of(f), b = link_of(frame.parent);
+    if (a != b) ours.insert(edge(model.frame(a).name, model.frame(b).name));
+  }
+  auto kept = [&](const std::string& link) {
+    const int f = model.find_frame(link);
+    return f >= 0 && model.frame(f).body >= first;
+  };
+  for (const auto& [name, joint] : urdf->joints_)
+    if (kept(joint->parent_link_name) && kept(joint->child_link_name))
+      expected.insert(edge(joint->parent_link_name, joint->child_link_name));
+  EXPECT_EQ(ours, expected) << entry.id;
+  EXPECT_GE(expected.size(), 5u) << entry.id;  // not vacuous
 }
 
 /// The whole tree as exported with the virtual dofs, parsed by kdl_parser.

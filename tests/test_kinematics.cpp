@@ -13,6 +13,7 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -868,6 +869,20 @@ TEST_P(ExportRoundTrip, SameFramePosesAfterExportAndImport) {
   ASSERT_EQ(back.num_dofs(), original.num_dofs());
   EXPECT_NEAR(back.total_mass(), original.total_mass(), 1e-9);
   expect_same_frame_poses(original, back, 5, 20);
+  // The links hang from the same links (Frame::parent; the body's origin where not given).
+  auto hangs_from = [](const Model& model, const wbm::Frame& f) {
+    if (f.parent >= 0) return model.frame(f.parent).name;
+    const int body = f.name == model.body(f.body).name ? model.body(f.body).parent : f.body;
+    return model.body(body).name;
+  };
+  const int root = original.virtual_dofs().upper_body;
+  int compared = 0;
+  for (const wbm::Frame& f : original.frames()) {
+    if (f.body < root || f.name == original.body(root).name) continue;
+    EXPECT_EQ(hangs_from(back, back.frame(back.frame_index(f.name))), hangs_from(original, f)) << f.name;
+    ++compared;
+  }
+  EXPECT_GT(compared, 5);
 }
 
 INSTANTIATE_TEST_SUITE_P(Urdfs, ExportRoundTrip, testing::ValuesIn(wbm_test::shipped_urdf_models()), wbm_test::ModelIdName());
@@ -967,6 +982,63 @@ TEST(ModelBuilder, RejectsValuesThatWouldOverflow) {
       EXPECT_NE(std::string(e.what()).find(change.expected), std::string::npos) << "got: " << e.what();
     }
   }
+}
+
+// Frame::parent: a frame hangs from a frame of its body, a body's own frame from one of the
+// parent body (so that the link between them is rigid, or spans the body's joint).
+TEST(ModelBuilder, FrameParentsHangFromTheirBodyOrTheParentBody) {
+  // Bodies: the nine virtual ones (the last is the root "trunk"), "arm" (a dof). Frames: one per
+  // body, then trunk_point on the trunk, tip and tip2 on the arm.
+  static constexpr int kNone = -1, kArm = 9, kTrunkPoint = 10, kTip = 11, kTip2 = 12;
+  auto model_with = [](int tip_parent, int arm_parent, int tip2_parent) {
+    wbm::ModelBuilder builder("parents");
+    wbm::Inertial trunk;
+    trunk.mass = 10.0;
+    const int ub = wbm::add_virtual_base(builder, 1.0, "trunk", wbm::Inertial{}, trunk);
+    wbm::Dof shoulder;
+    shoulder.name = "shoulder";
+    shoulder.lower = -1.0;
+    shoulder.upper = 1.0;
+    shoulder.max_speed = 2.0;
+    wbm::Body arm;
+    arm.name = "arm";
+    arm.parent = ub;
+    arm.X_PJ.p = {0.0, 0.2, 0.3};
+    arm.dof = builder.add_dof(shoulder);
+    const int arm_body = builder.add_body(arm);
+    EXPECT_EQ(builder.num_frames() - 1, kArm);
+    EXPECT_EQ(builder.add_frame({"trunk_point", ub, Transform{wbm::Matrix3::Identity(), {0.0, 0.2, 0.2}}}), kTrunkPoint);
+    EXPECT_EQ(builder.add_frame({"tip", arm_body, Transform{wbm::Matrix3::Identity(), {0.0, 0.0, -0.3}}}), kTip);
+    EXPECT_EQ(builder.add_frame({"tip2", arm_body, Transform{wbm::Matrix3::Identity(), {0.0, 0.0, -0.4}}}), kTip2);
+    builder.set_frame_parent(kTip, tip_parent);
+    builder.set_frame_parent(kArm, arm_parent);
+    builder.set_frame_parent(kTip2, tip2_parent);
+    return builder.build();
+  };
+  // Valid: the arm from trunk_point, tip from the arm's frame, tip2 from tip; or none given.
+  const Model ok = model_with(kArm, kTrunkPoint, kTip);
+  EXPECT_EQ(ok.frame(ok.frame_index("tip2")).parent, ok.frame_index("tip"));
+  EXPECT_EQ(ok.frame(ok.frame_index("arm")).parent, ok.frame_index("trunk_point"));
+  EXPECT_NO_THROW(model_with(kNone, kNone, kNone));
+  const std::vector<std::tuple<int, int, int, std::string>> bad = {
+      {kTrunkPoint, kNone, kNone,
+       "frame 'tip': parent frame 'trunk_point' is on body 'trunk', expected a frame on 'arm' (the frame's body)"},
+      {kNone, kTip, kNone,
+       "frame 'arm': parent frame 'tip' is on body 'arm', expected a frame on 'trunk' (the parent of the frame's body)"},
+      {kNone, kNone, kTip2, "frame 'tip2': parent frame index 12 is not -1 or the index of another frame"},
+      {kNone, kNone, 99, "frame 'tip2': parent frame index 99 is not -1 or the index of another frame"},
+      {-5, kNone, kNone, "frame 'tip': parent frame index -5 is not -1 or the index of another frame"},
+  };
+  for (const auto& [tip, arm, tip2, expected] : bad) {
+    try {
+      model_with(tip, arm, tip2);
+      ADD_FAILURE() << "accepted; wanted: " << expected;
+    } catch (const wbm::ModelError& e) {
+      EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << "got: " << e.what();
+    }
+  }
+  wbm::ModelBuilder builder("no_frames");
+  EXPECT_THROW(builder.set_frame_parent(0, -1), wbm::ModelError);
 }
 
 // Jacobians of a model with a welded body: its bodies without a dof write no column (a

@@ -2,6 +2,7 @@
 // run as the shipped scenarios, each checked against what the paper shows.
 #include <filesystem>
 #include <fstream>
+#include <map>
 
 #include <gtest/gtest.h>
 
@@ -243,7 +244,16 @@ TEST(Walking, TargetMovingWhileWalking) {
   EXPECT_LT(run->error.back()[run->element("l_hand")], 0.01);
 }
 
-/// Every shipped scenario runs cleanly and writes its three (or four) files.
+/// The report's data (the JSON written into the page's template).
+nlohmann::json report_data(const ScenarioRun& run) {
+  const std::string page = render_report(run);
+  const std::string tmpl = report_template();
+  const size_t hole = tmpl.find("__WBM_REPORT_DATA__");
+  const std::string after = tmpl.substr(hole + 19, 40);
+  const size_t begin = page.find(tmpl.substr(hole - 40, 40)) + 40;
+  return nlohmann::json::parse(page.substr(begin, page.find(after, begin) - begin));
+}
+
 // An axis task with `axis` (G1's camera link looks along x): the view converges, and the
 // report draws that axis at the frame (its arrow ends on the target direction), not z.
 TEST(Scenarios, AxisTaskWithAnAxisInItsFrameConvergesAndIsDrawn) {
@@ -261,12 +271,7 @@ TEST(Scenarios, AxisTaskWithAnAxisInItsFrameConvergesAndIsDrawn) {
   const Vector3 view = frame_pose(*run->model, data, run->model->frame_index("d435_link")).R.col(0);
   EXPECT_LT(std::acos(std::min(1.0, view.dot(target))), 1e-3) << view.transpose();
 
-  const std::string page = render_report(*run);
-  const std::string tmpl = report_template();
-  const size_t hole = tmpl.find("__WBM_REPORT_DATA__");
-  const std::string after = tmpl.substr(hole + 19, 40);
-  const size_t begin = page.find(tmpl.substr(hole - 40, 40)) + 40;
-  const nlohmann::json report = nlohmann::json::parse(page.substr(begin, page.find(after, begin) - begin));
+  const nlohmann::json report = report_data(*run);
   const std::vector<double> drawn = report["frame_z"].back();
   const auto& frames = report["robot"]["frames"];
   int index = -1;
@@ -277,6 +282,79 @@ TEST(Scenarios, AxisTaskWithAnAxisInItsFrameConvergesAndIsDrawn) {
   EXPECT_LT((arrow - view).norm(), 1e-6) << arrow.transpose();
 }
 
+/// Checks that the report draws every frame of the run's model as a link node hanging from
+/// the node of the frame it hangs from (Frame::parent, else its body's origin, a body's own
+/// frame from the parent body's), at the position forward kinematics gives. Returns the nodes'
+/// indices by name.
+std::map<std::string, int> expect_report_draws_every_link(const ScenarioRun& run) {
+  const Model& model = *run.model;
+  const nlohmann::json report = report_data(run);
+  const auto& nodes = report["robot"]["bodies"];
+  const std::vector<double> positions = report["body_pos"].back();
+  EXPECT_EQ(positions.size(), 3 * nodes.size());
+  Data data(model);
+  forward_kinematics(model, data, run.q.back());
+  std::map<std::string, int> node;
+  for (size_t i = 0; i < nodes.size(); ++i) node[nodes[i]["name"]] = static_cast<int>(i);
+  EXPECT_EQ(node.size(), static_cast<size_t>(model.num_frames()));
+  for (int f = 0; f < model.num_frames(); ++f) {
+    const wbm::Frame& frame = model.frame(f);
+    if (!node.count(frame.name)) {
+      ADD_FAILURE() << frame.name << " is not drawn";
+      continue;
+    }
+    const int i = node[frame.name];
+    const int parent = nodes[i]["parent"];
+    const int parent_body = model.body(frame.body).parent;
+    const bool own = frame.name == model.body(frame.body).name;
+    const std::string expected = frame.parent >= 0 ? model.frame(frame.parent).name
+                                 : !own            ? model.body(frame.body).name
+                                 : parent_body >= 0 ? model.body(parent_body).name
+                                                    : "";
+    EXPECT_EQ(parent >= 0 ? nodes[parent]["name"].get<std::string>() : "", expected) << frame.name;
+    const Vector3 drawn(positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]);
+    EXPECT_LT((drawn - frame_pose(model, data, f).p).norm(), 1e-12) << frame.name;
+  }
+  return node;
+}
+
+/// A scenario on a URDF with one position task on `frame`, `duration` seconds.
+Scenario reach_scenario(const std::string& urdf, const std::string& robot_options, const std::string& frame) {
+  return parse_scenario("name: reach\nrobot: {urdf: '" + urdf + "', " + robot_options + "}\nduration: 0.2\n" +
+                            "tasks: [{name: hand, type: position, frame: " + frame + "}]\n" +
+                            "timeline: [{t: 0, activate: [hand], relative_targets: {hand: [0.1, 0, 0.1]}}]\n",
+                        "reach.yaml", ".");
+}
+
+// The report draws every link of the URDF: the welded ones too (G1's locked legs, head and
+// sensors are frames on the pelvis and torso), each from the link it hangs from; and a
+// joint that hangs from a welded link (the synthetic robot's mount, also re-rooted at its
+// tool, where joints reverse) from that link, not from its body's origin.
+TEST(Scenarios, ReportDrawsEveryLinkFromTheLinkItHangsFrom) {
+  const auto g1 = run_scenario(reach_scenario(wbm_test::shipped_model("g1_29dof").path,
+                                              "legs: [left_hip_pitch_link, right_hip_pitch_link]", "left_rubber_hand"));
+  std::map<std::string, int> node = expect_report_draws_every_link(*g1);
+  // 22 welded: 12 leg links, the pelvis contour and IMU, 6 on the torso, 2 hands.
+  EXPECT_EQ(g1->model->num_frames() - g1->model->num_bodies(), 22);
+  const nlohmann::json nodes = report_data(*g1)["robot"]["bodies"];
+  EXPECT_EQ(nodes[node["left_ankle_roll_link"]]["parent"], node["left_ankle_pitch_link"]);
+  EXPECT_EQ(nodes[node["left_hip_pitch_link"]]["parent"], node["pelvis"]);
+  for (const std::string root : {"base", "tool"}) {
+    const auto run = run_scenario(reach_scenario(wbm_test::source_path("tests/data/mimic_prismatic.urdf"),
+                                                 "root: " + root + ", legs: [leg], root_height: 0.7",
+                                                 root == "tool" ? "base" : "tool"));
+    node = expect_report_draws_every_link(*run);
+    const nlohmann::json synthetic = report_data(*run)["robot"]["bodies"];
+    if (root == "base") {
+      EXPECT_EQ(synthetic[node["link_c"]]["parent"], node["mount"]);
+    } else {  // reversed: mount hangs from the body of j_mimic, which sits on link_c's origin
+      EXPECT_EQ(synthetic[node["mount"]]["parent"], node["j_mimic"]);
+      EXPECT_EQ(synthetic[node["j_mimic"]]["parent"], node["link_c"]);
+    }
+  }
+}
+
+/// Every shipped scenario runs cleanly and writes its three (or four) files.
 TEST(Scenarios, EveryShippedScenarioRunsAndWritesItsOutputs) {
   namespace fs = std::filesystem;
   const fs::path out = fs::temp_directory_path() / "wbm_scenarios_test";

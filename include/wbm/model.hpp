@@ -70,6 +70,11 @@ struct Frame {
   std::string name;
   int body = 0;
   Transform X_BF;
+  /// The frame this one hangs from in the robot's description (a URDF link's parent link,
+  /// after re-rooting), so that the links between welded frames can be drawn: a frame on
+  /// the same body or, for a body's own frame, one on the parent body. -1 if not given:
+  /// then the frame hangs from its body's origin, a body's own frame from the parent body's.
+  int parent = -1;
 };
 
 /// Indices of the paper's virtual dofs in q (section II), -1 where a model has none.
@@ -158,6 +163,10 @@ class ModelBuilder {
   int add_body(const Body& body);
   /// Adds a named frame and returns its index.
   int add_frame(const Frame& frame);
+  /// Sets Frame::parent of an added frame (e.g. of a body's own frame). Checked by build().
+  /// @throws ModelError if `frame` is not the index of an added frame.
+  void set_frame_parent(int frame, int parent);
+  int num_frames() const { return static_cast<int>(model_.frames_.size()); }
   void set_virtual_dofs(const VirtualDofs& v) { model_.virtual_dofs_ = v; }
   /// Home configuration; defaults to the dof centres.
   void set_home(const Eigen::VectorXd& q) { home_ = q; }

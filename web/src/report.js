@@ -12,9 +12,11 @@
  *   "time": [t0, t1, ...],                  seconds, N samples, non-decreasing
  *   "robot": {
  *     "bodies": [{"name": "l_elbow", "parent": 3}, ...],
- *         parent: index into bodies, or -1 for the world. A link (cylinder) is
- *         drawn from the parent's origin to the body's origin (not for -1, nor
- *         when shorter than 1 mm); a small sphere marks every body origin.
+ *         the robot's links: its moving bodies and the links welded to them
+ *         (locked legs, heads, sensors). parent: index into bodies, or -1 for
+ *         the world. A link (cylinder) is drawn from the parent's origin to the
+ *         body's origin (not for -1, nor when shorter than 1 mm); a small sphere
+ *         marks every body origin.
  *     "frames": [{"name": "l_hand_ref"}, ...]
  *         named frames: a small sphere at the origin and a 0.1 m arrow along
  *         frame_z (grasp / view axis).
@@ -223,7 +225,7 @@
     document.getElementById('meta').textContent = [
       `${time.length} samples`,
       `${duration.toFixed(3)} s`,
-      `${data.robot.bodies.length} bodies`,
+      `${data.robot.bodies.length} links`,
       `${data.robot.frames.length} frames`,
       `${data.targets.length} targets`,
     ].join(' · ');
