@@ -11,7 +11,8 @@
 #               base; no allocation in FK and Jacobians; a reused Data equals a fresh one;
 #               export to URDF and import again gives the same frame poses
 #   KDL         poses and Jacobians of every frame against Orocos KDL on your URDF (mimic
-#               joints included), and on the whole tree exported with the virtual dofs
+#               joints included), and on the whole tree exported with the virtual dofs;
+#               every frame hangs from the link next to it in the URDF (as drawn in reports)
 #   solver      the hands' position and grasp-axis rows and the head's view-axis row: their
 #               Jacobians against finite differences, J J# = I at full rank, J N = 0,
 #               N N = N, frozen dofs exactly still (eqs. 6, 7); random controller runs

@@ -53,6 +53,14 @@ rc=$?
 set -e
 [[ $rc -eq 2 ]] && grep -q "^error: --hands (WBM_TEST_HANDS): no joint of the robot moves frame 'world'" "$work/err3.txt" ||
   { cat "$work/err3.txt"; fail "unmoved hand: exit $rc"; }
+# ... and a head that no joint turns on a fixed base (its 2-row view axis would be singular).
+set +e
+scripts/check_model.sh "$work/massless.urdf" --hands left_tool,right_tool --head world --fixed-base \
+  --build-dir "$build_dir" >/dev/null 2>"$work/err4.txt"
+rc=$?
+set -e
+[[ $rc -eq 2 ]] && grep -q "^error: --head (WBM_TEST_HEAD): no revolute joint of the robot turns frame 'world'" \
+  "$work/err4.txt" || { cat "$work/err4.txt"; fail "unturned head: exit $rc"; }
 
 # ... and a flag without its value (the shared flag parsing of scripts/lib/flags.sh).
 tests/cli_expect_error.sh scripts/check_model.sh "check_model.sh: --hands needs a value" \

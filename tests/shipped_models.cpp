@@ -95,6 +95,7 @@ ShippedModel model_from_environment() {
   m.options.default_limits = std::getenv("WBM_TEST_DEFAULT_LIMITS") != nullptr;
   if (std::getenv("WBM_TEST_DROP_LEGS") != nullptr) m.options.leg_mode = wbm::LegMode::kDrop;
   m.fixed_base = std::getenv("WBM_TEST_FIXED_BASE") != nullptr;
+  m.min_full_rank_share = 0.1;  // not known (see the field)
   // Load it and look the frames up once here, so that a wrong file or name is one message.
   if (m.left_hand == m.right_hand) environment_error("--hands (WBM_TEST_HANDS): the two hands are the same frame");
   std::string what;  // the URDF file: its errors name the file and line
@@ -108,7 +109,16 @@ ShippedModel model_from_environment() {
       if (!moved) environment_error(what + "no joint of the robot moves frame '" + hand + "'");
     }
     what = "--head (WBM_TEST_HEAD): ";
-    if (!m.head.empty()) model.frame_index(m.head);
+    if (!m.head.empty()) {
+      // On a fixed base only the robot's revolute joints can turn the view axis.
+      bool turned = !m.fixed_base;
+      for (const int b : model.moving_bodies(model.frame(model.frame_index(m.head)).body))
+        turned = turned || (model.dof(model.body(b).dof).role == wbm::DofRole::kJoint &&
+                            model.body(b).joint_type == wbm::JointType::kRevolute);
+      if (!turned)
+        environment_error(what + "no revolute joint of the robot turns frame '" + m.head +
+                          "' (on a fixed base, --fixed-base, the virtual dofs are frozen): its view axis cannot move");
+    }
   } catch (const std::exception& e) {
     environment_error(what + e.what());
   }

@@ -189,8 +189,13 @@ void check_pseudo_inverse_identities(const wbm_test::ShippedModel& entry, const 
     ASSERT_LT((Jfree * N).norm(), 1e-9 * scale) << describe(q, stack.activation(), free);
     ASSERT_LT((N * N - N).norm(), 1e-9 * scale * scale) << describe(q, stack.activation(), free);
   }
-  // The identities must have been checked on most cases, not skipped.
-  EXPECT_GT(full_rank, cases / 2) << model.name();
+  std::cout << "  " << entry.id << ": identities checked on " << full_rank << " of " << cases << " cases\n";
+  // The identities must have been checked on enough cases, not skipped.
+  EXPECT_GE(full_rank, entry.min_full_rank_share * cases)
+      << entry.id << ": the identities were checked on " << full_rank << " of " << cases
+      << " cases only; the solver damped the others (rows near a singularity). If the rows are singular by the "
+         "robot's build (e.g. a head frame turned by fewer than two free joints under a 2-row view axis), leave "
+         "the frame out (--head).";
 }
 
 /// Cases of a property on each model when it runs on all of them (10^4 in all by default).
