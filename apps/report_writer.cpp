@@ -21,6 +21,11 @@ json xyz(const Vector3& v) { return json::array({v.x(), v.y(), v.z()}); }
 
 json value_or_null(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
+/// A link's position coordinate [m] rounded to a micrometre: the 3D view needs no more, and
+/// the positions of every link at every sample are most of a report (G1's 48 links: 2.8 of
+/// 3.8 MB written with 17 digits, 1.2 MB rounded).
+double micrometres(double x) { return std::round(x * 1e6) / 1e6; }  // "/": the double nearest to n um
+
 }  // namespace
 
 std::string render_report(const ScenarioRun& run) {
@@ -55,8 +60,9 @@ std::string render_report(const ScenarioRun& run) {
   }
   json bodies = json::array();
   for (int b = 0; b < nb; ++b) {
-    const int parent = model.frame(model.frame_index(model.body(b).name)).parent;
-    bodies.push_back({{"name", model.body(b).name}, {"parent", parent >= 0 ? node_of_frame[parent] : model.body(b).parent}});
+    const int parent_frame = model.frame(model.frame_index(model.body(b).name)).parent;
+    const int parent = parent_frame >= 0 ? node_of_frame[parent_frame] : model.body(b).parent;
+    bodies.push_back({{"name", model.body(b).name}, {"parent", parent}});
   }
   for (int f : welded) {
     const Frame& frame = model.frame(f);
@@ -86,10 +92,10 @@ std::string render_report(const ScenarioRun& run) {
     forward_kinematics(model, d, run.q[k]);
     json bp = json::array(), fp = json::array(), fz = json::array();
     for (int b = 0; b < nb; ++b)
-      for (int i = 0; i < 3; ++i) bp.push_back(d.X_WB[b].p[i]);
+      for (int i = 0; i < 3; ++i) bp.push_back(micrometres(d.X_WB[b].p[i]));
     for (int f : welded) {
       const Vector3 p = frame_position(model, d, f);
-      for (int i = 0; i < 3; ++i) bp.push_back(p[i]);
+      for (int i = 0; i < 3; ++i) bp.push_back(micrometres(p[i]));
     }
     for (size_t j = 0; j < frames.size(); ++j) {
       const Transform X = frame_pose(model, d, frames[j]);

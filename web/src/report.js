@@ -22,6 +22,7 @@
  *         frame_z (grasp / view axis).
  *   },
  *   "body_pos":  [[x0,y0,z0, x1,y1,z1, ...], ...]   N rows of 3*nbodies; world, metres, z up
+ *                                                    (the C++ writer rounds them to 1e-6 m)
  *   "frame_pos": [[...], ...]                        N rows of 3*nframes
  *   "frame_z":   [[...], ...]                        N rows of 3*nframes, unit axis of each frame: its
  *                                                    z-axis, or the axis of the axis task on it
