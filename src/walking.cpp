@@ -94,8 +94,10 @@ std::uint32_t WalkingModule::update(const Controller& c, const ControllerStatus&
   }
 
   // Stalled: the error has not fallen by 1 % for stall_time. A growing error (a target
-  // moving away) is not a stall; it restarts the measurement.
-  if (error < best_error_ * 0.99 || error > best_error_) {
+  // moving away: by more than 1 %) is not a stall; it restarts the measurement. Smaller
+  // rises are wobble (a target out of reach, the body still turning a little) and must not
+  // keep a walk going step after step.
+  if (error < best_error_ * 0.99 || error > best_error_ * 1.01) {
     best_error_ = error;
     stall_timer_ = 0.0;
   } else {
