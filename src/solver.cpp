@@ -483,24 +483,26 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
       status.flags |= kTaskSpeedLimited;
       out_.qdot_task *= task_scale;
       out_.task_scale = task_scale;
-      out_.nullspace_scale = 0.0;
-    } else {
-      // Largest s in [0, 1] with |qdot_task + s qdot_null| <= vmax for every dof; s = 1
-      // when the sum is within the limits (the common case: no divisions).
-      bool within = true;
-      for (int i = 0; i < n; ++i) within = within && std::abs(out_.qdot_task[i] + out_.qdot_null[i]) <= vmax[i];
-      double s = 1.0;
-      if (!within) {
-        for (int i = 0; i < n; ++i) {
-          const double qn = out_.qdot_null[i];
-          if (qn == 0.0) continue;
-          const double bound = (std::copysign(vmax[i], qn) - out_.qdot_task[i]) / qn;
-          s = std::min(s, std::max(bound, 0.0));
-        }
-      }
-      if (s < 1.0) status.flags |= kNullSpaceSpeedScaled;
-      out_.nullspace_scale = s;
     }
+    // Largest s in [0, 1] with |qdot_task + s qdot_null| <= vmax for every dof; s = 1
+    // when the sum is within the limits (the common case: no divisions). Also after the
+    // task part was scaled: dropping the null space there would make q_dot jump where
+    // the task part crosses a speed limit, and out of reach, where the damped task part
+    // grows as the null space moves the arm away from the singularity, it crosses it
+    // again and again (a limit cycle at 15-20 Hz; docs/solver.md).
+    bool within = true;
+    for (int i = 0; i < n; ++i) within = within && std::abs(out_.qdot_task[i] + out_.qdot_null[i]) <= vmax[i];
+    double s = 1.0;
+    if (!within) {
+      for (int i = 0; i < n; ++i) {
+        const double qn = out_.qdot_null[i];
+        if (qn == 0.0) continue;
+        const double bound = (std::copysign(vmax[i], qn) - out_.qdot_task[i]) / qn;
+        s = std::min(s, std::max(bound, 0.0));
+      }
+    }
+    if (s < 1.0) status.flags |= kNullSpaceSpeedScaled;
+    out_.nullspace_scale = s;
   }
   if (parameters_.nullspace_rate_change_limit > 0.0 && out_.nullspace_scale > 0.0) {
     // Jerk limit: the largest s' <= s with |s' qdot_null - previous| <= k vmax dt for all

@@ -604,7 +604,7 @@ TEST(Solver, SpeedScalingAndJerkLimit) {
   p.nullspace_rate_change_limit = 10.0;
   WholeBodySolver solver(model, 1, p);
   const Mask free = Mask::Constant(n, true);
-  // A huge task velocity: all of q_dot is scaled to the speed limits.
+  // A huge task velocity: the task part is scaled to the speed limits.
   MatrixXd J = MatrixXd::Zero(1, n);
   J(0, model.dof_index("l_elbow")) = 1.0;
   SolverStatus st = solver.solve(J, VectorXd::Constant(1, 100.0), VectorXd::Zero(n), free, 0.001);
@@ -625,6 +625,61 @@ TEST(Solver, SpeedScalingAndJerkLimit) {
     previous = v;
   }
   EXPECT_TRUE(st.has(kNullSpaceSpeedScaled) || st.has(kNullSpaceJerkLimited));
+}
+
+// Where the task part alone crosses a speed limit it is scaled to it, and the null-space
+// part is scaled to fit beside it as anywhere else: q_dot is continuous in the task
+// velocity across that point. (Dropping the null space there made q_dot jump by the whole
+// null-space motion, and a target out of reach crossed the point again and again: a
+// limit cycle at 15-20 Hz, Scenarios.TargetsOutOfReachSettleWithoutChattering.)
+TEST(Solver, QdotIsContinuousWhereTheTaskPartReachesASpeedLimit) {
+  const Model model = make_paper_model();
+  const int n = model.num_dofs();
+  SolverParameters p;
+  p.nullspace_rate_change_limit = 0.0;  // the speed rule alone
+  WholeBodySolver solver(model, 1, p);
+  const Mask free = Mask::Constant(n, true);
+  MatrixXd J = MatrixXd::Zero(1, n);
+  J(0, model.dof_index("l_elbow")) = 1.0;
+  J(0, model.dof_index("l_shoulder_pitch")) = 0.5;
+  VectorXd gradient = VectorXd::Zero(n);
+  // The null space moves the elbow against the task part (as out of reach, where the
+  // joint-limit criterion bends the arm the task stretches) and the shoulder yaw.
+  gradient[model.dof_index("l_elbow")] = -2.0;
+  gradient[model.dof_index("l_shoulder_yaw")] = -1.0;
+  // The task rate at which the task part alone reaches a speed limit.
+  solver.solve(J, VectorXd::Constant(1, 1.0), gradient, free, 0.001);
+  const VectorXd per_unit = solver.output().qdot_task;
+  double crossing = std::numeric_limits<double>::infinity();
+  for (int i = 0; i < n; ++i)
+    if (per_unit[i] != 0.0) crossing = std::min(crossing, model.max_speeds()[i] / std::abs(per_unit[i]));
+  const double null_size = solver.output().qdot_null.cwiseAbs().maxCoeff();
+  ASSERT_GT(null_size, 0.1);  // a null-space motion whose loss would show
+  const int steps = 400;
+  const double step = 0.4 * crossing / steps;  // 0.8 to 1.2 times the crossing
+  // Continuous: the change per step stays of the order of the task part's (the null-space
+  // scale moves with it where a limit binds), far below the null-space motion a jump drops.
+  const double max_change = 10.0 * step * per_unit.cwiseAbs().maxCoeff();
+  ASSERT_LT(max_change, 0.1 * null_size);
+  VectorXd previous;
+  int limited = 0;
+  for (int k = 0; k <= steps; ++k) {
+    const double xdot = 0.8 * crossing + k * step;
+    const SolverStatus st = solver.solve(J, VectorXd::Constant(1, xdot), gradient, free, 0.001);
+    const VectorXd& v = solver.output().qdot;
+    for (int i = 0; i < n; ++i) ASSERT_LE(std::abs(v[i]), model.max_speeds()[i] * (1 + 1e-12)) << k;
+    if (st.has(kTaskSpeedLimited)) {
+      ++limited;
+      EXPECT_GT(solver.output().qdot_null.cwiseAbs().maxCoeff(), 0.5 * null_size) << "null space dropped, k " << k;
+    }
+    if (k > 0) {
+      ASSERT_LE((v - previous).cwiseAbs().maxCoeff(), max_change)
+          << "q_dot jumps at task rate " << xdot << " (the task part reaches a limit at " << crossing << ")";
+    }
+    previous = v;
+  }
+  EXPECT_GT(limited, steps / 3);
+  EXPECT_LT(limited, 2 * steps / 3);
 }
 
 TEST(Controller, ConfigurationErrorsThrow) {

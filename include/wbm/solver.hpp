@@ -38,7 +38,7 @@ enum SolverFlag : std::uint32_t {
   kSolverOk = 0,
   kDamped = 1u << 0,                ///< Near-singular: damped least squares was used.
   kOverdetermined = 1u << 1,        ///< More active rows than free dofs.
-  kTaskSpeedLimited = 1u << 2,      ///< The task part alone broke a speed limit: all of q_dot scaled.
+  kTaskSpeedLimited = 1u << 2,      ///< The task part alone broke a speed limit: it was scaled to it.
   kNullSpaceSpeedScaled = 1u << 3,  ///< Null-space part scaled to respect the speed limits.
   kNullSpaceJerkLimited = 1u << 4,  ///< Null-space part scaled by the jerk limit.
   kNoActiveRows = 1u << 5,          ///< No task row active: null-space motion only.
