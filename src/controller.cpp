@@ -23,6 +23,7 @@ int Controller::add_task(std::unique_ptr<TaskElement> element, const FilterParam
   TrajectoryFilter f(element->target_kind(), element->target_dim(), filter);
   needs_center_of_mass_ = needs_center_of_mass_ || element->needs_center_of_mass();
   const int index = stack_.add_element(std::move(element));
+  stack_.set_feedback_limit(index, filter.max_speed);
   filters_.push_back(std::move(f));
   solver_.reset();
   return index;

@@ -1,5 +1,8 @@
 #include "wbm/task_stack.hpp"
 
+#include <cmath>
+#include <limits>
+
 #include "wbm/errors.hpp"
 
 namespace wbm {
@@ -35,6 +38,7 @@ int TaskStack::add_element(std::unique_ptr<TaskElement> element) {
   feed_forward_.setZero(rows);
   xdot_.setZero(rows);
   active_index_.assign(rows, 0);
+  feedback_limit_.push_back(std::numeric_limits<double>::infinity());
   elements_.push_back(std::move(element));
   return num_elements() - 1;
 }
@@ -47,6 +51,14 @@ int TaskStack::element_index(const std::string& name) const {
 
 void TaskStack::set_element_active(int element, bool active) {
   activation_.segment(row_offset_.at(element), elements_.at(element)->dim()).setConstant(active);
+}
+
+void TaskStack::set_feedback_limit(int element, double limit) {
+  const std::string& name = elements_.at(element)->name();
+  if (!(limit > 0.0))
+    throw ConfigError("task element '" + name + "': feedback limit must be > 0 (or infinite), got " +
+                      std::to_string(limit));
+  feedback_limit_[element] = limit;
 }
 
 bool TaskStack::element_active(int element) const {
@@ -77,12 +89,25 @@ int TaskStack::assemble(const Model& model, const Data& data) {
     e.evaluate(model, data, targets_.segment(t0, e.target_dim()), rates_.segment(t0, e.target_dim()),
                all ? J_.middleRows(active_rows_, e.dim()) : J_full_.middleRows(r0, e.dim()),
                errors_.segment(r0, e.dim()), feed_forward_.segment(r0, e.dim()));
+    const int first = active_rows_;
+    const double gain = e.gain();
+    double squared = 0.0;
     for (int r = r0; r < r0 + e.dim(); ++r) {
       if (!activation_[r]) continue;
       if (!all) J_.row(active_rows_) = J_full_.row(r);
-      xdot_[active_rows_] = feed_forward_[r] + e.gain() * errors_[r];
+      xdot_[active_rows_] = feed_forward_[r] + gain * errors_[r];
+      squared += errors_[r] * errors_[r];
       active_index_[active_rows_] = r;
       ++active_rows_;
+    }
+    // The feedback term gain * e over the active rows, scaled down (direction kept) where
+    // its norm exceeds the element's limit: error clamping, which keeps a target out of
+    // reach from commanding ever faster motion as the error grows (docs/solver.md).
+    const double limit = feedback_limit_[i];
+    if (gain * gain * squared > limit * limit) [[unlikely]] {
+      const double clamped = limit / std::sqrt(squared);
+      for (int k = first; k < active_rows_; ++k)
+        xdot_[k] = feed_forward_[active_index_[k]] + clamped * errors_[active_index_[k]];
     }
   }
   return active_rows_;

@@ -244,6 +244,52 @@ TEST(Walking, TargetMovingWhileWalking) {
   EXPECT_LT(run->error.back()[run->element("l_hand")], 0.01);
 }
 
+/// Largest joint acceleration [rad/s^2, m/s^2] over the cycles from time t0 on (second
+/// differences of the recorded configurations), and its dof.
+std::pair<double, std::string> largest_acceleration_after(const ScenarioRun& run, double t0) {
+  std::pair<double, std::string> worst{0.0, ""};
+  for (size_t k = 1; k + 1 < run.q.size(); ++k) {
+    if (run.time[k] < t0) continue;
+    const double dt = run.time[k + 1] - run.time[k];
+    const VectorXd a = (run.q[k + 1] - 2.0 * run.q[k] + run.q[k - 1]) / (dt * dt);
+    Eigen::Index i = 0;
+    if (a.cwiseAbs().maxCoeff(&i) > worst.first) worst = {std::abs(a[i]), run.model->dof(static_cast<int>(i)).name};
+  }
+  return worst;
+}
+
+// Targets out of reach: the hands stop short and the robot comes to rest. Before, the arm
+// chattered for as long as the target stayed: the null-space motion (the joint-limit
+// criterion bending the stretched elbow) grew the damped task part until it crossed a speed
+// limit, where the null space was dropped at once (3,000 rad/s^2 every 50 ms on the paper
+// model, with or without balance); and G1 flipped between two configurations every cycle
+// (25,000 rad/s^2) under an error feedback of 1.6 m/s, now bounded by the hands' trajectory
+// speed (error clamping).
+TEST(Scenarios, TargetsOutOfReachSettleWithoutChattering) {
+  const std::string paper =
+      "name: far\nrobot: {builtin: paper}\ndt: 0.001\nduration: 4\nfrozen: [heel_x, heel_y, heel_yaw]\n"
+      "tasks: [{name: l, type: position, frame: l_hand_ref, filter: {bandwidth: 4, max_speed: 0.4}},\n"
+      "        {name: r, type: position, frame: r_hand_ref, filter: {bandwidth: 4, max_speed: 0.4}}]\n"
+      "timeline: [{t: 0.2, activate: [l, r], targets: {l: [0.9, 0.2, 0.8], r: [0.9, -0.2, 0.8]}}]\n";
+  const std::string g1 = "name: far\nrobot: {urdf: '" + wbm_test::shipped_model("g1_29dof").path +
+                         "', root: pelvis, legs: [left_hip_pitch_link, right_hip_pitch_link]}\n"
+                         "dt: 0.002\nduration: 4\nfrozen: [heel_x, heel_y, heel_yaw]\n"
+                         "feet: {length: 0.20, width: 0.08, left_frame: left_ankle_roll_link, "
+                         "right_frame: right_ankle_roll_link}\n"
+                         "tasks: [{name: l, type: position, frame: left_rubber_hand, filter: {bandwidth: 4, max_speed: 0.4}},\n"
+                         "        {name: r, type: position, frame: right_rubber_hand, filter: {bandwidth: 4, max_speed: 0.4}}]\n"
+                         "timeline: [{t: 0.2, activate: [l, r], relative_targets: {l: [0.5, 0, 0.2], r: [0.5, 0, 0.2]}}]\n";
+  const std::string balance = "balance: {enabled: true, compensate: true, gain: 4.0}\n";
+  for (const auto& [name, text] : std::vector<std::pair<std::string, std::string>>{
+           {"paper", paper}, {"paper with balance", paper + balance}, {"G1 with balance", g1 + balance}}) {
+    const auto run = run_scenario(parse_scenario(text, "far.yaml", "."));
+    EXPECT_GT(run->error.back()[run->element("l")], 0.02) << name << ": the target should be out of reach";
+    const auto [acceleration, dof] = largest_acceleration_after(*run, 2.5);
+    EXPECT_LT(acceleration, 10.0) << name << ": " << dof << " still accelerates at " << acceleration
+                                  << " rad/s^2 in the last 1.5 s";
+  }
+}
+
 /// The report's data (the JSON written into the page's template).
 nlohmann::json report_data(const ScenarioRun& run) {
   const std::string page = render_report(run);

@@ -682,6 +682,53 @@ TEST(Solver, QdotIsContinuousWhereTheTaskPartReachesASpeedLimit) {
   EXPECT_LT(limited, 2 * steps / 3);
 }
 
+// Error clamping: an element's feedback term gain * e, over its active rows, is scaled to
+// feedback_limit() where its norm exceeds it (direction kept); the errors themselves, and
+// the feed-forward rate, are untouched. A controller sets the limit to the filter's speed.
+TEST(TaskStack, FeedbackTermIsBoundedByTheElementsLimit) {
+  const Model model = make_paper_model();
+  Data data(model);
+  forward_kinematics(model, data, model.home());
+  TaskStack stack(model);
+  add_paper_tasks(model, stack);  // l_hand, l_grasp, r_hand, r_grasp, view
+  EXPECT_EQ(stack.feedback_limit(0), std::numeric_limits<double>::infinity());
+  VectorXd x(stack.num_targets());
+  stack.values(model, data, x);
+  const int l_hand = stack.element_index("l_hand"), r_hand = stack.element_index("r_hand");
+  stack.targets() = x;
+  stack.targets().segment<3>(stack.target_offset(l_hand)) += Vector3(0.3, 0.0, 0.4);  // 0.5 m away
+  stack.targets().segment<3>(stack.target_offset(r_hand)) += Vector3(0.0, 0.002, 0.0);  // 2 mm away
+  stack.target_rates().setZero();
+  stack.target_rates()[stack.target_offset(l_hand)] = 0.1;  // feed-forward, not bounded
+  stack.element(l_hand).set_gain(10.0);
+  stack.set_feedback_limit(l_hand, 0.4);
+  stack.set_feedback_limit(r_hand, 0.4);
+  ASSERT_EQ(stack.assemble(model, data), stack.num_rows());
+  const Eigen::Vector3d l_rows = stack.task_velocity().segment<3>(stack.row_offset(l_hand));
+  const Eigen::Vector3d l_error = stack.errors().segment<3>(stack.row_offset(l_hand));
+  EXPECT_NEAR(l_error.norm(), 0.5, 1e-12);  // the error is reported unclamped
+  EXPECT_LT((l_rows - Vector3(0.1, 0.0, 0.0) - 0.4 * l_error.normalized()).norm(), 1e-12) << l_rows.transpose();
+  const Eigen::Vector3d r_rows = stack.task_velocity().segment<3>(stack.row_offset(r_hand));
+  EXPECT_LT((r_rows - 10.0 * Vector3(0.0, 0.002, 0.0)).norm(), 1e-12);  // below the limit: gain * e
+  // Only the active rows count: z alone (0.4 m) gives 0.4 m/s in z.
+  stack.activation().segment(stack.row_offset(l_hand), 2).setConstant(false);
+  const int m = stack.assemble(model, data);
+  EXPECT_NEAR(stack.task_velocity()[0], 0.4, 1e-12);
+  EXPECT_EQ(m, stack.num_rows() - 2);
+  // Without a limit, gain * e as before.
+  stack.set_feedback_limit(l_hand, std::numeric_limits<double>::infinity());
+  stack.assemble(model, data);
+  EXPECT_NEAR(stack.task_velocity()[0], 10.0 * 0.4, 1e-12);
+  for (const double bad : {0.0, -1.0, std::nan("")}) EXPECT_THROW(stack.set_feedback_limit(l_hand, bad), ConfigError);
+  EXPECT_THROW(stack.set_feedback_limit(99, 1.0), std::out_of_range);
+  // A controller bounds each element's feedback by its filter's speed.
+  Controller controller(model);
+  FilterParameters filter;
+  filter.max_speed = 0.25;
+  const int hand = controller.add_task(std::make_unique<PositionTask>(model, "hand", "l_hand_ref"), filter);
+  EXPECT_EQ(controller.tasks().feedback_limit(hand), 0.25);
+}
+
 TEST(Controller, ConfigurationErrorsThrow) {
   const Model model = make_paper_model();
   EXPECT_THROW(PositionTask(model, "x", "no_such_frame"), ModelError);

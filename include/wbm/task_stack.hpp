@@ -41,6 +41,14 @@ class TaskStack {
   const Mask& activation() const { return activation_; }
   void set_element_active(int element, bool active);
   bool element_active(int element) const;
+  /// Largest norm of an element's feedback term gain * e over its active rows [the
+  /// element's units/s, e.g. m/s, rad/s]: beyond it the term is scaled down, direction kept
+  /// (error clamping). Infinite unless set; Controller::add_task sets it to the element's
+  /// trajectory speed limit (FilterParameters::max_speed), so that the commanded task
+  /// velocity towards a target out of reach stays bounded as the error grows.
+  /// @throws ConfigError if limit is NaN or <= 0.
+  void set_feedback_limit(int element, double limit);
+  double feedback_limit(int element) const { return feedback_limit_.at(element); }
   /// Targets and their time derivatives, in each element's reference frame.
   Eigen::VectorXd& targets() { return targets_; }
   Eigen::VectorXd& target_rates() { return rates_; }
@@ -50,7 +58,8 @@ class TaskStack {
   void values(const Model& model, const Data& data, Eigen::Ref<Eigen::VectorXd> x);
 
   /// Evaluates every element with an active row and copies the active rows into the
-  /// assembled Jacobian and task velocity rate + gain * error. Returns the number m of
+  /// assembled Jacobian and task velocity rate + gain * error (the feedback term bounded by
+  /// feedback_limit()). Returns the number m of
   /// active rows. Never allocates.
   int assemble(const Model& model, const Data& data);
   /// Assembled Jacobian (m x nq) and commanded task velocity (m) of the last assemble().
@@ -76,6 +85,7 @@ class TaskStack {
   Eigen::MatrixXd J_full_, J_;
   Eigen::VectorXd errors_, feed_forward_, xdot_;
   std::vector<int> active_index_;
+  std::vector<double> feedback_limit_;
   int active_rows_ = 0;
 };
 
