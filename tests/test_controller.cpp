@@ -81,6 +81,15 @@ TEST(Controller, CycleAllocatesNothing) {
   }
 }
 
+/// A command that keeps the heel standing (its dofs frozen), and the base if it is fixed.
+Command standing_command(const wbm_test::ShippedModel& entry, const Model& model, const Controller& c) {
+  Command cmd = c.make_command();
+  for (int i : {model.virtual_dofs().heel_x, model.virtual_dofs().heel_y, model.virtual_dofs().heel_yaw})
+    cmd.free_dofs[i] = false;
+  entry.freeze_base(model, cmd.free_dofs);
+  return cmd;
+}
+
 /// Targets from a random reachable configuration near home; start at home (the base upright
 /// and frozen if it is fixed); converge to 0.1 mm and 0.1 deg, allocating nothing in the
 /// cycles.
@@ -103,10 +112,7 @@ void converge(const wbm_test::ShippedModel& entry, unsigned seed, int targets) {
     c.add_task(std::make_unique<PositionTask>(model, "r_hand", entry.right_hand), {5.0, 0.5, 2});
     c.add_task(std::make_unique<AxisTask>(model, "r_grasp", entry.right_hand), {5.0, 1.5, 2});
     c.reset(entry.start(model));
-    Command cmd = c.make_command();
-    for (int i : {model.virtual_dofs().heel_x, model.virtual_dofs().heel_y, model.virtual_dofs().heel_yaw})
-      cmd.free_dofs[i] = false;
-    entry.freeze_base(model, cmd.free_dofs);
+    Command cmd = standing_command(entry, model, c);
     cmd.targets << L.p, L.R.col(2), R.p, R.R.col(2);
     double pos = 0, ang = 0;
     wbm_test::AllocationCounter counter;
@@ -168,10 +174,7 @@ TEST_P(ShippedRobot, TargetsOutOfReachComeToRest) {
     c.add_task(std::make_unique<PositionTask>(model, "l_hand", entry.left_hand), {4.0, 0.4, 2});
     c.add_task(std::make_unique<PositionTask>(model, "r_hand", entry.right_hand), {4.0, 0.4, 2});
     c.reset(entry.start(model));
-    Command cmd = c.make_command();
-    for (int i : {model.virtual_dofs().heel_x, model.virtual_dofs().heel_y, model.virtual_dofs().heel_yaw})
-      cmd.free_dofs[i] = false;
-    entry.freeze_base(model, cmd.free_dofs);
+    Command cmd = standing_command(entry, model, c);
     const Vector3 mirror(offset.x(), -offset.y(), offset.z());
     cmd.targets << c.values().segment<3>(0) + offset, c.values().segment<3>(3) + mirror;
     VectorXd q_before = c.q(), q_now = c.q();

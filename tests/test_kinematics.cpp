@@ -891,8 +891,9 @@ INSTANTIATE_TEST_SUITE_P(ImportVariants, ExportRoundTrip, testing::ValuesIn(wbm_
 
 /// A model with a body welded to its parent (no dof): legal in a ModelBuilder model.
 /// `arm_multiplier`: the arm's coupling to its dof (URDF can express only 1 there).
-Model welded_model(double arm_multiplier = 1.0) {
-  wbm::ModelBuilder builder("welded");
+/// The nine virtual bodies (the last the root "trunk", 10 kg) and "arm" (1 kg) on the trunk,
+/// driven by the dof "shoulder" (y axis) times `arm_multiplier`. Returns the arm's body.
+int add_trunk_and_arm(wbm::ModelBuilder& builder, double arm_multiplier = 1.0) {
   wbm::Inertial trunk;
   trunk.mass = 10.0;
   const int ub = wbm::add_virtual_base(builder, 1.0, "trunk", wbm::Inertial{}, trunk);
@@ -909,7 +910,12 @@ Model welded_model(double arm_multiplier = 1.0) {
   arm.dof = builder.add_dof(dof);
   arm.multiplier = arm_multiplier;
   arm.inertial.mass = 1.0;
-  const int arm_body = builder.add_body(arm);
+  return builder.add_body(arm);
+}
+
+Model welded_model(double arm_multiplier = 1.0) {
+  wbm::ModelBuilder builder("welded");
+  const int arm_body = add_trunk_and_arm(builder, arm_multiplier);
   wbm::Body hand;
   hand.name = "hand";
   hand.parent = arm_body;
@@ -992,20 +998,8 @@ TEST(ModelBuilder, FrameParentsHangFromTheirBodyOrTheParentBody) {
   static constexpr int kNone = -1, kArm = 9, kTrunkPoint = 10, kTip = 11, kTip2 = 12;
   auto model_with = [](int tip_parent, int arm_parent, int tip2_parent) {
     wbm::ModelBuilder builder("parents");
-    wbm::Inertial trunk;
-    trunk.mass = 10.0;
-    const int ub = wbm::add_virtual_base(builder, 1.0, "trunk", wbm::Inertial{}, trunk);
-    wbm::Dof shoulder;
-    shoulder.name = "shoulder";
-    shoulder.lower = -1.0;
-    shoulder.upper = 1.0;
-    shoulder.max_speed = 2.0;
-    wbm::Body arm;
-    arm.name = "arm";
-    arm.parent = ub;
-    arm.X_PJ.p = {0.0, 0.2, 0.3};
-    arm.dof = builder.add_dof(shoulder);
-    const int arm_body = builder.add_body(arm);
+    const int arm_body = add_trunk_and_arm(builder);
+    const int ub = builder.num_bodies() - 2;
     EXPECT_EQ(builder.num_frames() - 1, kArm);
     EXPECT_EQ(builder.add_frame({"trunk_point", ub, Transform{wbm::Matrix3::Identity(), {0.0, 0.2, 0.2}}}), kTrunkPoint);
     EXPECT_EQ(builder.add_frame({"tip", arm_body, Transform{wbm::Matrix3::Identity(), {0.0, 0.0, -0.3}}}), kTip);
