@@ -240,7 +240,20 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
     balance = std::make_unique<BalanceModule>(model, std::make_unique<CenterOfMassCentering>(s.balance.gain, s.balance.margin),
                                               feet);
   std::unique_ptr<WalkingModule> walking;
-  if (s.walking.enabled) walking = std::make_unique<WalkingModule>(model, feet, s.walking.parameters);
+  if (s.walking.enabled) {
+    // Step widths not given: the defaults (for feet 0.18 m apart) scaled to this robot's
+    // feet, so that NAO (0.10 m) and H1 (0.41 m) can place their feet where they stand.
+    WalkingParameters p = s.walking.parameters;
+    const WalkingParameters defaults;
+    const double scale = feet.spacing / FootGeometry{}.spacing;
+    if (!s.walking.min_width_given) p.min_step_width = defaults.min_step_width * scale;
+    if (!s.walking.max_width_given) p.max_step_width = defaults.max_step_width * scale;
+    try {
+      walking = std::make_unique<WalkingModule>(model, feet, p);
+    } catch (const Error& e) {
+      fail(s, s.walking.line, e.what());  // "FILE:LINE: walking: ..."
+    }
+  }
   auto current_support = [&]() {
     if (walking) return walking->support();
     const VirtualDofs& v = model.virtual_dofs();

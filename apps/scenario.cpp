@@ -247,6 +247,7 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
   }
   if (const YAML::Node walking = root["walking"]) {
     WalkingParameters& w = s.walking.parameters;
+    s.walking.line = r.line(walking);
     r.only(walking, "walking", {"enabled", "trigger_on_joint_limit", "cost_threshold", "stall_time", "error_tolerance",
                                 "max_step_length", "max_step_width", "min_step_width", "max_step_turn", "step_duration",
                                 "converged_speed", "converge_time", "feet_tolerance", "max_steps", "max_walks"});
@@ -260,6 +261,8 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
         {"converged_speed", &w.converged_speed}, {"converge_time", &w.converge_time}, {"feet_tolerance", &w.feet_tolerance}};
     for (const auto& [key, slot] : numbers)
       if (walking[key]) *slot = r.number(walking[key], std::string("walking.") + key);
+    s.walking.min_width_given = static_cast<bool>(walking["min_step_width"]);
+    s.walking.max_width_given = static_cast<bool>(walking["max_step_width"]);
     if (walking["max_steps"]) w.max_steps = static_cast<int>(r.positive(walking["max_steps"], "walking.max_steps"));
     if (walking["max_walks"]) w.max_walks = static_cast<int>(r.positive(walking["max_walks"], "walking.max_walks"));
   }

@@ -71,6 +71,10 @@ struct FeetSettings {
 struct WalkingSettings {
   bool enabled = false;
   WalkingParameters parameters;
+  /// min_step_width / max_step_width given in the file; if not, the runner scales the
+  /// defaults (0.14, 0.30 m for feet 0.18 m apart) to the robot's foot spacing.
+  bool min_width_given = false, max_width_given = false;
+  int line = 0;
 };
 
 struct Scenario {

@@ -1,5 +1,7 @@
 #include "wbm/walking.hpp"
 
+#include <sstream>
+
 #include <algorithm>
 #include <cmath>
 
@@ -25,6 +27,15 @@ WalkingModule::WalkingModule(const Model& model, const FootGeometry& feet, const
         p.max_walks > 0 && p.trigger_time >= 0))
     throw ConfigError("walking: step limits, durations, tolerances and counts must be positive "
                       "(and max_step_width > min_step_width)");
+  // The feet stand `spacing` apart beside the heel; a step width range without it would
+  // never let the swing foot land there, and no walk would end but by max_steps.
+  if (!(feet.spacing >= p.min_step_width && feet.spacing <= p.max_step_width)) {
+    std::ostringstream msg;
+    msg << "walking: the feet stand " << feet.spacing << " m apart (foot spacing), outside the step widths ["
+        << p.min_step_width << ", " << p.max_step_width << "] m (min_step_width, max_step_width): the feet could "
+        << "never reach their places beside the heel; widen the step widths to include the spacing";
+    throw ConfigError(msg.str());
+  }
   const Vector2 heel(model.home()[v.heel_x], model.home()[v.heel_y]);
   left_ = stance_target(true, heel, model.home()[v.heel_yaw]);
   right_ = stance_target(false, heel, model.home()[v.heel_yaw]);

@@ -230,6 +230,62 @@ TEST(Walking, UnreachableTargetDoesNotStepForever) {
   }
 }
 
+// Step widths and feet: the feet stand `spacing` apart beside the heel, so a step width
+// range without the spacing never lets a walk end (NAO's feet are 0.10 m apart, H1's
+// 0.41 m, the defaults allow 0.14-0.30 m: both stepped in place until the end). The library
+// refuses such parameters; a scenario that does not give the widths scales them to its feet.
+TEST(Walking, StepWidthsMustIncludeTheFootSpacing) {
+  const Model model = make_paper_model();
+  FootGeometry feet;
+  for (const auto& [spacing, text] : std::vector<std::pair<double, std::string>>{{0.10, "0.1"}, {0.41, "0.41"}}) {
+    feet.spacing = spacing;
+    try {
+      WalkingModule walking(model, feet, WalkingParameters{});
+      ADD_FAILURE() << "spacing " << spacing << " accepted";
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("walking: the feet stand " + text +
+                                           " m apart (foot spacing), outside the step widths [0.14, 0.3] m"),
+                std::string::npos)
+          << e.what();
+    }
+  }
+  feet.spacing = 0.14;  // the bounds themselves are fine
+  EXPECT_NO_THROW(WalkingModule(model, feet, WalkingParameters{}));
+  // A scenario's own widths are kept, and checked with its line.
+  try {
+    run_scenario(parse_scenario("name: w\nrobot: {builtin: paper}\nduration: 1\nfrozen: [heel_x, heel_y, heel_yaw]\n"
+                                "walking: {enabled: true, min_step_width: 0.2, max_step_width: 0.4}\n"
+                                "tasks: [{name: h, type: position, frame: l_hand_ref}]\n",
+                                "w.yaml", "."));
+    ADD_FAILURE() << "accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("w.yaml:5: walking: the feet stand 0.18 m apart"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Walking, RobotsWithNarrowAndWideFeetFinishTheirWalk) {
+  struct Robot {
+    std::string id, hand, left_foot, right_foot;
+  };
+  for (const Robot& r : {Robot{"nao", "l_gripper", "l_ankle", "r_ankle"},
+                         Robot{"h1", "left_elbow_link", "left_ankle_link", "right_ankle_link"}}) {
+    const wbm_test::ShippedModel& m = wbm_test::shipped_model(r.id);
+    std::string legs;
+    for (const std::string& leg : m.options.legs) legs += (legs.empty() ? "" : ", ") + leg;
+    const Scenario s = parse_scenario(
+        "name: walk\nrobot: {urdf: '" + m.path + "', legs: [" + legs + "]}\nduration: 16\n"
+        "frozen: [heel_x, heel_y, heel_yaw]\nwalking: {enabled: true}\n"
+        "feet: {length: 0.15, width: 0.07, left_frame: " + r.left_foot + ", right_frame: " + r.right_foot + "}\n"
+        "tasks: [{name: hand, type: position, frame: " + r.hand + ", filter: {bandwidth: 3, max_speed: 0.4}}]\n"
+        "timeline: [{t: 0.2, activate: [hand], relative_targets: {hand: [1.5, 0.4, 0.0]}}]\n",
+        "walk.yaml", ".");
+    const auto run = run_scenario(s);
+    EXPECT_EQ(walks(*run), 1) << r.id;
+    EXPECT_EQ(final_walking(*run)[3], 0.0) << r.id << ": still walking after " << run->footsteps.size() << " steps";
+    EXPECT_LT(run->error.back()[run->element("hand")], 1e-3) << r.id;
+  }
+}
+
 TEST(Walking, TargetMovingWhileWalking) {
   Scenario s = shipped("walk_object_ahead");
   s.duration = 20.0;
