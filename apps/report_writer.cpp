@@ -148,6 +148,26 @@ std::string render_report(const ScenarioRun& run) {
     }
     data["footprints"] = prints;
   }
+  if (!run.balance.empty()) {
+    // Balance: the centre of mass on the ground, and (standing) the feet it is kept over.
+    json com = json::array();
+    for (int k : samples) com.push_back(json::array({run.balance[k][0], run.balance[k][1], 0.0}));
+    paths.push_back({{"name", "centre of mass (on the ground)"}, {"points", com}});
+    if (run.walking.empty()) {
+      const VirtualDofs& v = model.virtual_dofs();
+      const Vector2 heel(run.q[0][v.heel_x], run.q[0][v.heel_y]);
+      const double yaw = run.q[0][v.heel_yaw];
+      json prints = json::array();
+      for (const bool left : {true, false}) {
+        const Vector2 side = Eigen::Rotation2Dd(yaw) * Vector2(0.0, (left ? 0.5 : -0.5) * run.feet.spacing);
+        const SupportPolygon foot = SupportPolygon::from_feet({{heel + side, yaw}}, run.feet);
+        json poly = json::array();
+        for (const Vector2& p : foot.vertices()) poly.push_back(json::array({p.x(), p.y()}));
+        prints.push_back({{"t", run.time.front()}, {"side", left ? "L" : "R"}, {"polygon", poly}});
+      }
+      data["footprints"] = prints;
+    }
+  }
   data["paths"] = paths;
 
   auto series = [&](const std::string& label, auto&& value) {

@@ -456,6 +456,44 @@ TEST(Scenarios, ReportDrawsEveryLinkFromTheLinkItHangsFrom) {
   }
 }
 
+// Balance without walking: the report draws the feet the centre of mass is kept over (both
+// feet at their place beside the heel, from the start) and the centre of mass on the ground.
+TEST(Scenarios, BalanceReportDrawsTheFeetAndTheCentreOfMass) {
+  const auto run = run_scenario(shipped("g1_reach_with_balance"));
+  const nlohmann::json report = report_data(*run);
+  const auto& prints = report["footprints"];
+  ASSERT_EQ(prints.size(), 2u);
+  // Together the two feet span the support polygon the balance module used.
+  const SupportPolygon& support = run->support.front();
+  double x_min = 1e9, x_max = -1e9, y_min = 1e9, y_max = -1e9;
+  for (const auto& foot : prints) {
+    EXPECT_EQ(foot["t"].get<double>(), run->time.front());
+    for (const auto& p : foot["polygon"]) {
+      x_min = std::min(x_min, p[0].get<double>()), x_max = std::max(x_max, p[0].get<double>());
+      y_min = std::min(y_min, p[1].get<double>()), y_max = std::max(y_max, p[1].get<double>());
+    }
+  }
+  double sx_min = 1e9, sx_max = -1e9, sy_min = 1e9, sy_max = -1e9;
+  for (const Vector2& p : support.vertices()) {
+    sx_min = std::min(sx_min, p.x()), sx_max = std::max(sx_max, p.x());
+    sy_min = std::min(sy_min, p.y()), sy_max = std::max(sy_max, p.y());
+  }
+  EXPECT_NEAR(x_min, sx_min, 1e-12);
+  EXPECT_NEAR(x_max, sx_max, 1e-12);
+  EXPECT_NEAR(y_min, sy_min, 1e-12);
+  EXPECT_NEAR(y_max, sy_max, 1e-12);
+  EXPECT_EQ(prints[0]["side"], "L");
+  EXPECT_GT(prints[0]["polygon"][0][1].get<double>(), prints[1]["polygon"][0][1].get<double>() - 1e-12);
+  const nlohmann::json* com = nullptr;
+  for (const auto& path : report["paths"])
+    if (path["name"] == "centre of mass (on the ground)") com = &path;
+  ASSERT_NE(com, nullptr);
+  const auto& last = (*com)["points"].back();
+  EXPECT_NEAR(last[0].get<double>(), run->balance.back()[0], 1e-12);
+  EXPECT_NEAR(last[1].get<double>(), run->balance.back()[1], 1e-12);
+  EXPECT_EQ(last[2].get<double>(), 0.0);
+}
+
 /// Every shipped scenario runs cleanly and writes its three (or four) files.
 TEST(Scenarios, EveryShippedScenarioRunsAndWritesItsOutputs) {
   namespace fs = std::filesystem;
