@@ -233,6 +233,20 @@ int run_scenarios(const std::vector<std::string>& files, const std::string& out,
       if (e["final_error"].is_null()) std::cerr << "inactive at the end\n";
       else std::cerr << "final error " << e["final_error"].get<double>() << " " << e["unit"].get<std::string>() << "\n";
     }
+    if (summary.contains("balance") && summary["balance"]["final_com_margin"].is_number()) {
+      const double margin = summary["balance"]["final_com_margin"].get<double>();
+      std::ostringstream cm;
+      cm << std::fixed << std::setprecision(1) << std::abs(margin) * 100.0;
+      std::cerr << "  balance: centre of mass " << cm.str() << " cm "
+                << (margin >= 0.0 ? "inside the feet at the end\n"
+                                  : "OUTSIDE the feet at the end (the upper-body shift could not bring it over them)\n");
+    }
+    if (summary.contains("walking")) {
+      const json& w = summary["walking"];
+      const int walks = w["walks"].get<int>();
+      std::cerr << "  walking: " << w["footsteps"].get<int>() << " footsteps in " << walks << (walks == 1 ? " walk" : " walks")
+                << (w["walking_at_end"].get<bool>() ? ", still walking at the end\n" : "\n");
+    }
     std::cerr << "  wrote " << dir << "/{trajectory.csv,summary.json" << (no_report ? "" : ",report.html") << "}\n";
   }
   return 0;

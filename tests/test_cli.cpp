@@ -252,6 +252,30 @@ TEST(Cli, RunWithAnOutputThatIsAFileFails) {
   std::remove(file.c_str());
 }
 
+// The run's last lines say how balance and walking ended, not only the task errors: a
+// centre of mass left outside the feet, or a walk still going, is what a user looks for.
+TEST(Cli, RunSaysHowBalanceAndWalkingEnded) {
+  const std::string base = testing::TempDir() + "wbm_cli_balance_" + std::to_string(getpid());
+  const std::string inside = base + "_in.yaml", outside = base + "_out.yaml", walk = base + "_walk.yaml";
+  const std::string tasks = "tasks: [{name: a, type: position, frame: l_hand_ref}]\n";
+  std::ofstream(inside) << "name: in\nduration: 0.2\nfrozen: [heel_x, heel_y, heel_yaw]\nbalance: {enabled: true}\n" << tasks;
+  // Feet 4 cm long: the centre of mass, 6 cm ahead of the heel, stays beyond their front edge.
+  std::ofstream(outside) << "name: out\nduration: 0.2\nfrozen: [heel_x, heel_y, heel_yaw]\nbalance: {enabled: true}\n"
+                         << "feet: {length: 0.04, width: 0.1}\n" << tasks;
+  std::ofstream(walk) << "name: walk\nduration: 0.2\nfrozen: [heel_x, heel_y, heel_yaw]\nwalking: {enabled: true}\n" << tasks;
+  const CliRun r = wbm_cli("run '" + inside + "' '" + outside + "' '" + walk + "' --out '" + base + "_dir' --no-report");
+  EXPECT_EQ(r.status, 0) << r.err;
+  const size_t in = r.err.find("scenario in"), out = r.err.find("scenario out"), w = r.err.find("scenario walk");
+  ASSERT_TRUE(in != std::string::npos && out != std::string::npos && w != std::string::npos) << r.err;
+  EXPECT_NE(r.err.substr(in, out - in).find(" cm inside the feet at the end"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.substr(out, w - out).find(" cm OUTSIDE the feet at the end (the upper-body shift could not"),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.substr(w).find("  walking: 0 footsteps in 0 walks\n"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.substr(w).find("balance:"), std::string::npos) << r.err;
+  for (const std::string& f : {inside, outside, walk}) std::remove(f.c_str());
+}
+
 TEST(Cli, MissingSubcommandFails) {
   EXPECT_NE(wbm_cli("").status, 0);
   EXPECT_NE(wbm_cli("model").status, 0);
