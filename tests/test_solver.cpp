@@ -727,6 +727,8 @@ TEST(TaskStack, FeedbackTermIsBoundedByTheElementsLimit) {
   filter.max_speed = 0.25;
   const int hand = controller.add_task(std::make_unique<PositionTask>(model, "hand", "l_hand_ref"), filter);
   EXPECT_EQ(controller.tasks().feedback_limit(hand), 0.25);
+  controller.tasks().set_feedback_limit(hand, std::numeric_limits<double>::infinity());  // no bound
+  EXPECT_EQ(controller.tasks().feedback_limit(hand), std::numeric_limits<double>::infinity());
 }
 
 TEST(Controller, ConfigurationErrorsThrow) {
