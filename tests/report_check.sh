@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Writes reports for a paper experiment, a walking scenario, G1 balancing (every URDF link,
-# the feet and the centre of mass drawn) and one that never switches a task element on,
-# and checks each in headless Chromium (web/test/check_report.mjs): no
+# the feet and the centre of mass drawn), one that never switches a task element on and
+# NAO (a small robot, drawn smaller), and checks each in headless Chromium (web/test/check_report.mjs): no
 # console errors, no requests, the 3D view drawn and changing with the time slider, every
 # plot drawn (the idle one has no task-error plot rather than an empty one).
 set -euo pipefail
@@ -12,11 +12,16 @@ mkdir -p "$out"
 # No element active; the arm starts near its limits, so the null-space criterion moves it.
 printf 'name: idle\nduration: 0.5\ninitial: {l_shoulder_pitch: -2.2, l_elbow: -2.2}\n%s\n' \
   'tasks: [{name: l_hand, type: position, frame: l_hand_ref, active: false}]' >"$out/idle.yaml"
+# NAO, 0.58 m tall: its links, spheres and arrows are drawn at about half the size.
+printf 'name: nao\nrobot: {urdf: %s, legs: [LPelvis, RPelvis]}\nduration: 0.5\n%s\n%s\n' \
+  "$PWD/models/third_party/nao/nao.urdf" 'tasks: [{name: hand, type: position, frame: l_gripper}]' \
+  'timeline: [{t: 0, activate: [hand], relative_targets: {hand: [0.05, 0, 0.05]}}]' >"$out/nao.yaml"
 "$wbm" run scenarios/fig7_middle_gaze_sweep.yaml scenarios/walk_object_ahead.yaml scenarios/g1_reach_with_balance.yaml \
-  "$out/idle.yaml" --out "$out"
+  "$out/idle.yaml" "$out/nao.yaml" --out "$out"
 for name in fig7_middle_gaze_sweep walk_object_ahead g1_reach_with_balance idle; do
-  node web/test/check_report.mjs "$out/$name/report.html" --screenshot "$out/$name/screenshot.png"
+  node web/test/check_report.mjs "$out/$name/report.html" --screenshot "$out/$name/screenshot.png" --expect-scale 0.8,1.2
 done
+node web/test/check_report.mjs "$out/nao/report.html" --screenshot "$out/nao/screenshot.png" --expect-scale 0.3,0.6
 if grep -q 'Task errors to the commanded targets' "$out/idle/report.html"; then
   echo "report_check: the idle scenario's report has a task-error plot without data" >&2
   exit 1

@@ -19,7 +19,8 @@
  *         marks every body origin.
  *     "frames": [{"name": "l_hand_ref"}, ...]
  *         named frames: a small sphere at the origin and a 0.1 m arrow along
- *         frame_z (grasp / view axis).
+ *         frame_z (grasp / view axis). Sizes here are for a robot 1.2 m tall;
+ *         the viewer scales them by the robot's height (0.3 to 1.5 times).
  *   },
  *   "body_pos":  [[x0,y0,z0, x1,y1,z1, ...], ...]   N rows of 3*nbodies; world, metres, z up
  *                                                    (the C++ writer rounds them to 1e-6 m)
@@ -43,7 +44,7 @@
  * }
  *
  * When the 3D view and every chart have been drawn once, window.wbmReady is
- * set to true. Errors are reported with console.error and shown on the page.
+ * set to true (and window.wbmDrawingScale holds the scale of the drawn robot). Errors are reported with console.error and shown on the page.
  */
 (function () {
   'use strict';
@@ -57,6 +58,11 @@
   const JOINT_RADIUS = 0.021;
   const FRAME_SPHERE_RADIUS = 0.016;
   const MIN_LINK_LENGTH = 0.001;
+  // The sizes above are for a robot about 1.2 m tall (the paper's model, G1); a smaller or
+  // larger robot gets them scaled by its height at sample 0 (NAO: about 0.45), within limits.
+  const REFERENCE_HEIGHT = 1.2;
+  const MIN_DRAWING_SCALE = 0.3;
+  const MAX_DRAWING_SCALE = 1.5;
   const FLOOR_LIFT = 0.002;
 
   const COLORS = {
@@ -255,12 +261,13 @@
   }
 
   // An arrow along +Y of its group, from the origin to `length`.
-  function makeArrow(length, color) {
+  function makeArrow(length, color, scale = 1) {
     const material = standardMaterial(color);
     const headLength = 0.3 * length;
-    const shaft = new THREE.Mesh(new THREE.CylinderGeometry(0.005, 0.005, length - headLength, 10), material);
+    const shaft = new THREE.Mesh(new THREE.CylinderGeometry(0.005 * scale, 0.005 * scale, length - headLength, 10),
+      material);
     shaft.position.y = (length - headLength) / 2;
-    const head = new THREE.Mesh(new THREE.ConeGeometry(0.013, headLength, 14), material);
+    const head = new THREE.Mesh(new THREE.ConeGeometry(0.013 * scale, headLength, 14), material);
     head.position.y = length - headLength / 2;
     const group = new THREE.Group();
     group.add(shaft, head);
@@ -298,6 +305,13 @@
     return { box, sphere };
   }
 
+  // Scale of the drawn links, spheres and arrows for the robot's height at sample 0.
+  function drawingScale(box) {
+    const height = box.max.z - box.min.z;
+    if (!(height > 0)) return 1;
+    return Math.min(MAX_DRAWING_SCALE, Math.max(MIN_DRAWING_SCALE, height / REFERENCE_HEIGHT));
+  }
+
   // Extent of the floor grid: covers the robot, footprints and paths.
   function floorExtent(data, box) {
     let extent = Math.max(Math.abs(box.min.x), Math.abs(box.max.x), Math.abs(box.min.y), Math.abs(box.max.y));
@@ -310,10 +324,10 @@
     return Math.min(Math.max(1, Math.ceil(extent + 0.5)), 50);
   }
 
-  function createBodies(world, data) {
+  function createBodies(world, data, scale) {
     const bodies = data.robot.bodies;
-    const jointGeometry = new THREE.SphereGeometry(JOINT_RADIUS, 16, 12);
-    const linkGeometry = new THREE.CylinderGeometry(LINK_RADIUS, LINK_RADIUS, 1, 14);
+    const jointGeometry = new THREE.SphereGeometry(JOINT_RADIUS * scale, 16, 12);
+    const linkGeometry = new THREE.CylinderGeometry(LINK_RADIUS * scale, LINK_RADIUS * scale, 1, 14);
     const jointMaterial = standardMaterial(COLORS.joint);
     const linkMaterial = standardMaterial(COLORS.link);
     const joints = bodies.map(() => {
@@ -355,13 +369,13 @@
     };
   }
 
-  function createFrames(world, data) {
+  function createFrames(world, data, scale) {
     const frames = data.robot.frames;
-    const sphereGeometry = new THREE.SphereGeometry(FRAME_SPHERE_RADIUS, 14, 10);
+    const sphereGeometry = new THREE.SphereGeometry(FRAME_SPHERE_RADIUS * scale, 14, 10);
     const material = standardMaterial(COLORS.frame);
     const items = frames.map(() => {
       const sphere = new THREE.Mesh(sphereGeometry, material);
-      const arrow = makeArrow(FRAME_AXIS_LENGTH, COLORS.frame);
+      const arrow = makeArrow(FRAME_AXIS_LENGTH * scale, COLORS.frame, scale);
       world.add(sphere, arrow);
       return { sphere, arrow };
     });
@@ -383,15 +397,15 @@
     };
   }
 
-  function createTargets(world, data) {
-    const sphereGeometry = new THREE.SphereGeometry(TARGET_SPHERE_RADIUS, 20, 14);
+  function createTargets(world, data, scale) {
+    const sphereGeometry = new THREE.SphereGeometry(TARGET_SPHERE_RADIUS * scale, 20, 14);
     const sphereMaterial = standardMaterial(COLORS.targetPosition, {
       transparent: true, opacity: 0.45, depthWrite: false,
     });
     const objects = data.targets.map((target) => {
       const object = target.kind === 'position'
         ? new THREE.Mesh(sphereGeometry, sphereMaterial)
-        : makeArrow(TARGET_AXIS_LENGTH, COLORS.targetAxis);
+        : makeArrow(TARGET_AXIS_LENGTH * scale, COLORS.targetAxis, scale);
       object.visible = false;
       world.add(object);
       return object;
@@ -518,15 +532,17 @@
     world.updateMatrixWorld();
 
     const { box, sphere } = firstFrameBounds(data);
+    const scale = drawingScale(box);
+    window.wbmDrawingScale = scale;  // for tests (web/test/check_report.mjs --expect-scale)
     const extent = floorExtent(data, box);
     const grid = new THREE.GridHelper(2 * extent, Math.min(20 * extent, 400), COLORS.gridCenter, COLORS.grid);
     scene.add(grid);
-    world.add(new THREE.AxesHelper(0.3));
+    world.add(new THREE.AxesHelper(0.3 * scale));
 
     const updates = [
-      createBodies(world, data),
-      createFrames(world, data),
-      createTargets(world, data),
+      createBodies(world, data, scale),
+      createFrames(world, data, scale),
+      createTargets(world, data, scale),
       createFootprints(world, data),
       createPaths(world, data),
     ];

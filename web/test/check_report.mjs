@@ -1,12 +1,15 @@
 // Opens a report in headless Chromium and checks that it works offline.
 //
 //   node test/check_report.mjs path/to/report.html [--screenshot out.png] [--expect-plots K]
+//                              [--expect-scale MIN,MAX]
 //
 // Fails (exit 1) on: a console error or page error; a request to anything but
 // the report file itself; window.wbmReady not set within 20 s; a blank 3D
 // view; fewer drawn uPlot charts than plots in the data (exactly K with
 // --expect-plots); a 3D image that does not change when the time slider moves
-// to the end. The screenshot (full page) is taken with the slider at the middle.
+// to the end; with --expect-scale, a scale of the drawn robot (links, spheres,
+// arrows: window.wbmDrawingScale) outside [MIN, MAX]. The screenshot (full page)
+// is taken with the slider at the middle.
 
 import { chromium } from 'playwright-core';
 import { existsSync } from 'node:fs';
@@ -20,18 +23,23 @@ const MIN_NON_BACKGROUND = 0.02;
 
 function usage(message) {
   if (message) console.error(`check_report.mjs: ${message}`);
-  console.error('usage: node test/check_report.mjs REPORT.html [--screenshot OUT.png] [--expect-plots K]');
+  console.error('usage: node test/check_report.mjs REPORT.html [--screenshot OUT.png] [--expect-plots K] ' +
+    '[--expect-scale MIN,MAX]');
   process.exit(2);
 }
 
 function parseArgs(argv) {
-  const options = { report: null, screenshot: null, expectPlots: null };
+  const options = { report: null, screenshot: null, expectPlots: null, expectScale: null };
   for (let i = 0; i < argv.length; i++) {
     const arg = argv[i];
     if (arg === '--screenshot') options.screenshot = argv[++i] ?? usage('--screenshot needs a file name');
     else if (arg === '--expect-plots') {
       options.expectPlots = Number(argv[++i]);
       if (!Number.isInteger(options.expectPlots) || options.expectPlots < 0) usage('--expect-plots needs a count');
+    } else if (arg === '--expect-scale') {
+      const range = String(argv[++i] ?? '').split(',').map(Number);
+      if (range.length !== 2 || !range.every(Number.isFinite) || range[0] > range[1]) usage('--expect-scale needs MIN,MAX');
+      options.expectScale = range;
     } else if (arg.startsWith('--')) usage(`unknown option ${arg}`);
     else if (options.report === null) options.report = arg;
     else usage(`unexpected argument ${arg}`);
@@ -211,6 +219,14 @@ try {
       (problems.length ? `; ${problems.join('; ')}` : '');
     return [countOk && problems.length === 0, detail];
   });
+
+  if (options.expectScale) {
+    await runCheck('drawing scale', async () => {
+      const scale = await page.evaluate(() => window.wbmDrawingScale);
+      const [min, max] = options.expectScale;
+      return [typeof scale === 'number' && scale >= min && scale <= max, `${scale} (expected ${min} to ${max})`];
+    });
+  }
 
   await runCheck('time slider changes the 3D view', async () => {
     const value = await page.evaluate(moveSlider, 'end');
