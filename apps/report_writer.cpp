@@ -53,9 +53,8 @@ std::string render_report(const ScenarioRun& run) {
   const int nb = model.num_bodies();
   std::vector<int> node_of_frame(model.num_frames()), welded;
   for (int f = 0; f < model.num_frames(); ++f) {
-    const Frame& frame = model.frame(f);
-    const bool own = frame.name == model.body(frame.body).name;
-    node_of_frame[f] = own ? frame.body : nb + static_cast<int>(welded.size());
+    const bool own = model.is_body_frame(f);
+    node_of_frame[f] = own ? model.frame(f).body : nb + static_cast<int>(welded.size());
     if (!own) welded.push_back(f);
   }
   json bodies = json::array();
@@ -73,7 +72,7 @@ std::string render_report(const ScenarioRun& run) {
   for (const ScenarioTask& t : s.tasks)
     if (!t.frame.empty()) used.insert(model.frame_index(t.frame));
   for (int f = 0; f < model.num_frames(); ++f)
-    if (used.count(f) || (model.frame(f).name != model.body(model.frame(f).body).name && model.num_frames() < 40))
+    if (used.count(f) || (!model.is_body_frame(f) && model.num_frames() < 40))
       frames.push_back(f);
   // The arrow drawn at each frame: the axis of the first axis task on it, else its z-axis.
   std::vector<Vector3> drawn_axis(frames.size(), Vector3::UnitZ());
@@ -159,8 +158,8 @@ std::string render_report(const ScenarioRun& run) {
       const double yaw = run.q[0][v.heel_yaw];
       json prints = json::array();
       for (const bool left : {true, false}) {
-        const Vector2 side = Eigen::Rotation2Dd(yaw) * Vector2(0.0, (left ? 0.5 : -0.5) * run.feet.spacing);
-        const SupportPolygon foot = SupportPolygon::from_feet({{heel + side, yaw}}, run.feet);
+        const SupportPolygon foot =
+            SupportPolygon::from_feet({standing_foot(left, heel, yaw, run.feet.spacing)}, run.feet);
         json poly = json::array();
         for (const Vector2& p : foot.vertices()) poly.push_back(json::array({p.x(), p.y()}));
         prints.push_back({{"t", run.time.front()}, {"side", left ? "L" : "R"}, {"polygon", poly}});

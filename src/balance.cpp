@@ -53,10 +53,12 @@ SupportPolygon SupportPolygon::from_feet(const std::vector<FootPose>& feet, cons
   return poly;
 }
 
+FootPose standing_foot(bool left, const Vector2& heel, double heel_yaw, double spacing) {
+  return {heel + Eigen::Rotation2Dd(heel_yaw) * Vector2(0.0, (left ? 0.5 : -0.5) * spacing), heel_yaw};
+}
+
 SupportPolygon SupportPolygon::standing(const Vector2& heel, double heel_yaw, const FootGeometry& g) {
-  const Eigen::Rotation2Dd R(heel_yaw);
-  return from_feet({{heel + R * Vector2(0.0, 0.5 * g.spacing), heel_yaw}, {heel + R * Vector2(0.0, -0.5 * g.spacing), heel_yaw}},
-                   g);
+  return from_feet({standing_foot(true, heel, heel_yaw, g.spacing), standing_foot(false, heel, heel_yaw, g.spacing)}, g);
 }
 
 double SupportPolygon::signed_distance(const Vector2& p) const {

@@ -249,7 +249,7 @@ Model ModelBuilder::build() {
       throw ModelError("frame " + quoted(f.name) + ": parent frame index " + std::to_string(f.parent) +
                        " is not -1 or the index of another frame");
     // A body's own frame hangs from a frame of the parent body, any other from one of its body.
-    const bool own = f.name == m.bodies_[f.body].name;
+    const bool own = m.is_body_frame(i);
     const int expected = own ? m.bodies_[f.body].parent : f.body;
     const Frame& p = m.frames_[f.parent];
     if (p.body != expected)

@@ -56,8 +56,7 @@ std::string export_urdf(const Model& model, const UrdfExportOptions& options) {
   auto hang = [&](const Frame& f, int body, const Transform& X_B) -> std::pair<std::string, Transform> {
     if (f.parent < 0) return {link_name(body), X_B};
     const Frame& p = model.frame(f.parent);
-    const bool own = p.name == model.body(p.body).name;
-    return {own ? link_name(p.body) : p.name, p.X_BF.inverse() * X_B};
+    return {model.is_body_frame(f.parent) ? link_name(p.body) : p.name, p.X_BF.inverse() * X_B};
   };
   std::ostringstream out;
   out << std::setprecision(17);
@@ -122,8 +121,9 @@ std::string export_urdf(const Model& model, const UrdfExportOptions& options) {
           << body.offset << "\"/>\n";
     out << "  </joint>\n";
   }
-  for (const Frame& f : model.frames()) {
-    if (f.name == model.body(f.body).name || f.body < root) continue;
+  for (int i = 0; i < model.num_frames(); ++i) {
+    const Frame& f = model.frame(i);
+    if (model.is_body_frame(i) || f.body < root) continue;
     const auto [parent_link, X_PF] = hang(f, f.body, f.X_BF);
     out << "  <link name=\"" << f.name << "\"/>\n  <joint name=\"" << f.name << "_joint\" type=\"fixed\">\n    <parent link=\""
         << parent_link << "\"/>\n    <child link=\"" << f.name << "\"/>\n    " << origin(X_PF) << "\n  </joint>\n";

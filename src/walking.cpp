@@ -42,8 +42,7 @@ WalkingModule::WalkingModule(const Model& model, const FootGeometry& feet, const
 }
 
 FootPose WalkingModule::stance_target(bool left, const Vector2& heel, double yaw) const {
-  const Eigen::Rotation2Dd R(yaw);
-  return {heel + R * Vector2(0.0, (left ? 0.5 : -0.5) * feet_.spacing), yaw};
+  return standing_foot(left, heel, yaw, feet_.spacing);
 }
 
 FootPose WalkingModule::real_heel() const {

@@ -1013,6 +1013,9 @@ TEST(ModelBuilder, FrameParentsHangFromTheirBodyOrTheParentBody) {
   const Model ok = model_with(kArm, kTrunkPoint, kTip);
   EXPECT_EQ(ok.frame(ok.frame_index("tip2")).parent, ok.frame_index("tip"));
   EXPECT_EQ(ok.frame(ok.frame_index("arm")).parent, ok.frame_index("trunk_point"));
+  EXPECT_TRUE(ok.is_body_frame(kArm));
+  EXPECT_FALSE(ok.is_body_frame(kTip));
+  EXPECT_FALSE(ok.is_body_frame(kTrunkPoint));
   EXPECT_NO_THROW(model_with(kNone, kNone, kNone));
   const std::vector<std::tuple<int, int, int, std::string>> bad = {
       {kTrunkPoint, kNone, kNone,

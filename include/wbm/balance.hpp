@@ -30,6 +30,10 @@ struct FootPose {
   double yaw = 0.0;
 };
 
+/// Where a foot stands beside the heel: `spacing / 2` [m] to the left (or right) of it,
+/// across the heel's yaw [rad], with that yaw. Balance, walking and reports use it.
+FootPose standing_foot(bool left, const Vector2& heel, double heel_yaw, double spacing);
+
 /// Convex support polygon in the world x-y plane.
 class SupportPolygon {
  public:

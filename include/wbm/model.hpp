@@ -101,6 +101,9 @@ class Model {
   const Body& body(int i) const { return bodies_.at(i); }
   const std::vector<Frame>& frames() const { return frames_; }
   const Frame& frame(int i) const { return frames_.at(i); }
+  /// True for a body's own frame (named as the body, at its origin), false for the other
+  /// frames (welded URDF links, hand points, cameras). @pre 0 <= frame < num_frames().
+  bool is_body_frame(int frame) const { return frames_[frame].name == bodies_[frames_[frame].body].name; }
   const VirtualDofs& virtual_dofs() const { return virtual_dofs_; }
 
   /// Total mass [kg].
