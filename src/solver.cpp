@@ -32,6 +32,7 @@ WholeBodySolver::WholeBodySolver(const Model& model, int max_rows, const SolverP
   const int n = model.num_dofs();
   const int m = std::max(max_rows, 1);
   free_.setConstant(n, true);
+  frozen_at_limit_.setConstant(n, false);
   w_.setZero(n);
   range_.resize(n);
   range_sq_.resize(n);
@@ -74,6 +75,8 @@ void WholeBodySolver::set_parameters(const SolverParameters& parameters) {
 
 void WholeBodySolver::reset() {
   previous_null_.setZero();
+  frozen_at_limit_.setConstant(false);
+  any_frozen_at_limit_ = false;
   previous_rows_ = -1;
   last_estimate_ = 0.0;
 }
@@ -471,6 +474,23 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
     }
     status.flags |= kDofAtLimitFrozen;
   }
+  // Where the set of dofs frozen at their limits changes, the motion is split differently
+  // between the task and the null-space part (a dof's share moves from one to the other),
+  // so this cycle's null-space part is not comparable with the last one's and the jerk
+  // limit below is skipped once. Releasing a dof whose free rate has just turned inwards
+  // leaves q_dot continuous (its rate crosses zero there); jerk-limiting the new split
+  // instead scaled the whole null space down at that instant and drove the dof back into
+  // the clamp, a hand-over repeating every 20 ms with crossed arms (docs/solver.md).
+  bool frozen_set_changed = false;
+  const bool any_frozen = (status.flags & kDofAtLimitFrozen) != 0;
+  if (any_frozen || any_frozen_at_limit_) {  // the common case (none, before and now) skips the loop
+    for (int i = 0; i < n; ++i) {
+      const bool frozen = free_dofs[i] && !free_[i];
+      frozen_set_changed = frozen_set_changed || frozen != frozen_at_limit_[i];
+      frozen_at_limit_[i] = frozen;
+    }
+    any_frozen_at_limit_ = any_frozen;
+  }
 
   const Eigen::VectorXd& vmax = model_.max_speeds();
   if (parameters_.limit_speeds) {
@@ -504,7 +524,7 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
     if (s < 1.0) status.flags |= kNullSpaceSpeedScaled;
     out_.nullspace_scale = s;
   }
-  if (parameters_.nullspace_rate_change_limit > 0.0 && out_.nullspace_scale > 0.0) {
+  if (parameters_.nullspace_rate_change_limit > 0.0 && out_.nullspace_scale > 0.0 && !frozen_set_changed) {
     // Jerk limit: the largest s' <= s with |s' qdot_null - previous| <= k vmax dt for all
     // dofs. s itself satisfies it in the common case, checked first without divisions.
     const double k_dt = parameters_.nullspace_rate_change_limit * dt;

@@ -346,6 +346,33 @@ TEST(Scenarios, TargetsOutOfReachSettleWithoutChattering) {
   }
 }
 
+// Out of reach with dofs held at their limits: G1 23-dof with balance, the hands crossed
+// (0.6 m to the other side) or straight up. Before, a shoulder joint was released from its
+// limit and, the jerk limit scaling the null space down at that instant, driven back into
+// it, again every 20 ms for as long as the target stayed (3,900 and 1,200 rad/s^2 at 10 s).
+TEST(Scenarios, DofsHeldAtTheirLimitsComeToRest) {
+  const std::string g1 = "name: held\nrobot: {urdf: '" + wbm_test::shipped_model("g1_23dof").path +
+                         "', legs: [left_hip_pitch_link, right_hip_pitch_link]}\n"
+                         "dt: 0.002\nduration: 10\nfrozen: [heel_x, heel_y, heel_yaw]\n"
+                         "feet: {length: 0.20, width: 0.08, left_frame: left_ankle_roll_link, "
+                         "right_frame: right_ankle_roll_link}\n"
+                         "balance: {enabled: true, compensate: true, gain: 4.0}\n"
+                         "tasks: [{name: l, type: position, frame: left_wrist_roll_rubber_hand, "
+                         "filter: {bandwidth: 4, max_speed: 0.4}},\n"
+                         "        {name: r, type: position, frame: right_wrist_roll_rubber_hand, "
+                         "filter: {bandwidth: 4, max_speed: 0.4}}]\n";
+  for (const auto& [name, targets] : std::vector<std::pair<std::string, std::string>>{
+           {"crossed", "{l: [0.3, -0.6, 0.1], r: [0.3, 0.6, 0.1]}"},
+           {"straight up", "{l: [0, 0, 0.8], r: [0, 0, 0.8]}"}}) {
+    const auto run = run_scenario(parse_scenario(
+        g1 + "timeline: [{t: 0.2, activate: [l, r], relative_targets: " + targets + "}]\n", "held.yaml", "."));
+    EXPECT_GT(run->error.back()[run->element("r")], 0.02) << name << ": the target should be out of reach";
+    const auto [acceleration, dof] = largest_acceleration_after(*run, 8.5);
+    EXPECT_LT(acceleration, 10.0) << name << ": " << dof << " still accelerates at " << acceleration
+                                  << " rad/s^2 in the last 1.5 s";
+  }
+}
+
 /// The report's data (the JSON written into the page's template).
 nlohmann::json report_data(const ScenarioRun& run) {
   const std::string page = render_report(run);

@@ -682,6 +682,73 @@ TEST(Solver, QdotIsContinuousWhereTheTaskPartReachesASpeedLimit) {
   EXPECT_LT(limited, 2 * steps / 3);
 }
 
+// A dof at its limit is frozen while the solution would drive it further out and released
+// where its free rate turns inwards; q_dot is continuous there (the rate crosses zero), also
+// with the jerk limit on. Before, the jerk limit compared the new split of q_dot into task
+// and null-space parts (the dof's null-space rate appears at once) with the last cycle's,
+// scaled the whole null space down and drove the dof back into the clamp: out of reach with
+// crossed arms that repeated every 20 ms (G1 23-dof, 4,000 rad/s^2).
+TEST(Solver, QdotIsContinuousWhereADofIsReleasedFromItsLimit) {
+  const Model model = make_paper_model();
+  const int n = model.num_dofs();
+  const double dt = 0.001;
+  WholeBodySolver solver(model, 1);
+  ASSERT_GT(solver.parameters().nullspace_rate_change_limit, 0.0);  // the jerk limit is on
+  const Mask free = Mask::Constant(n, true);
+  const int elbow = model.dof_index("l_elbow");
+  VectorXd q = model.home();
+  q[elbow] = model.lower_limits()[elbow];
+  MatrixXd J = MatrixXd::Zero(1, n);
+  J(0, elbow) = 1.0;
+  J(0, model.dof_index("l_shoulder_pitch")) = 0.5;
+  // The null space pushes the elbow off its lower limit and also moves the shoulder yaw;
+  // a negative task rate drives the elbow into the limit.
+  VectorXd gradient = VectorXd::Zero(n);
+  gradient[elbow] = -0.5;
+  gradient[model.dof_index("l_shoulder_yaw")] = 0.25;
+  // The parts per unit task rate, with the elbow free and frozen (a solver without the jerk
+  // and speed limits: the first solve's null space is not yet ramped up).
+  SolverParameters unlimited;
+  unlimited.nullspace_rate_change_limit = 0.0;
+  unlimited.limit_speeds = false;
+  WholeBodySolver probe(model, 1, unlimited);
+  probe.solve(J, VectorXd::Constant(1, 1.0), gradient, free, dt);  // no q: nothing frozen
+  const VectorXd per_unit = probe.output().qdot_task;
+  const double null_elbow = probe.output().qdot_null[elbow];
+  ASSERT_GT(null_elbow, 0.05);
+  ASSERT_GT(per_unit[elbow], 0.0);
+  const double crossing = -null_elbow / per_unit[elbow];  // the task rate where the free elbow rate is 0
+  Mask elbow_frozen = free;
+  elbow_frozen[elbow] = false;
+  probe.solve(J, VectorXd::Constant(1, 1.0), gradient, elbow_frozen, dt);
+  const double sensitivity = std::max(per_unit.cwiseAbs().maxCoeff(), probe.output().qdot_task.cwiseAbs().maxCoeff());
+  const int steps = 400;
+  const double step = 0.4 * std::abs(crossing) / steps;  // 1.2 to 0.8 times the crossing
+  const double max_change = 10.0 * step * sensitivity;
+  ASSERT_LT(max_change, 0.1 * null_elbow);
+  for (int k = 0; k < 200; ++k) solver.solve(J, VectorXd::Constant(1, 1.2 * crossing), gradient, free, dt, &q);
+  VectorXd previous = solver.output().qdot;
+  int frozen = 0;
+  for (int k = 1; k <= steps; ++k) {
+    const double xdot = 1.2 * crossing - k * (0.4 * crossing / steps);
+    const SolverStatus st = solver.solve(J, VectorXd::Constant(1, xdot), gradient, free, dt, &q);
+    ASSERT_FALSE(st.has(kTaskSpeedLimited) || st.has(kNullSpaceSpeedScaled)) << k;  // the jerk limit alone
+    const VectorXd& v = solver.output().qdot;
+    if (st.has(kDofAtLimitFrozen)) {
+      ++frozen;
+      EXPECT_EQ(v[elbow], 0.0) << k;
+    } else {
+      EXPECT_GE(v[elbow], 0.0) << "released into the limit at task rate " << xdot << ", k " << k;
+    }
+    ASSERT_LE((v - previous).cwiseAbs().maxCoeff(), max_change)
+        << "q_dot jumps at task rate " << xdot << " (the elbow is released at " << crossing << "), k " << k
+        << (st.has(kNullSpaceJerkLimited) ? ", jerk-limited" : "");
+    previous = v;
+  }
+  EXPECT_GT(frozen, steps / 3);  // frozen first, released later
+  EXPECT_LT(frozen, 2 * steps / 3);
+}
+
 // Error clamping: an element's feedback term gain * e, over its active rows, is scaled to
 // feedback_limit() where its norm exceeds it (direction kept); the errors themselves, and
 // the feed-forward rate, are untouched. A controller sets the limit to the filter's speed.

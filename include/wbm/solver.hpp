@@ -28,6 +28,8 @@ struct SolverParameters {
   /// The paper's "jerk limit" on the null-space rates (IV.E): the null-space velocity of
   /// a dof may change by at most this many times its speed limit per second [1/s]; 0 turns
   /// it off. When exceeded, the whole null-space vector is scaled down (direction kept).
+  /// Not applied in a solve where the set of dofs frozen at their limits changes (the
+  /// task/null-space split changes there; docs/solver.md).
   double nullspace_rate_change_limit = 20.0;
   /// Scale velocities so that no dof exceeds its speed limit (IV.E).
   bool limit_speeds = true;
@@ -152,6 +154,8 @@ class WholeBodySolver {
                               double* x1, double* x2);
   std::unique_ptr<internal::UnitRowElimination> elimination_;  // joint rows, solved exactly outside A
   Mask free_;                 // b_C, plus dofs frozen at their limits
+  Mask frozen_at_limit_;      // the dofs frozen at their limits in the last solve
+  bool any_frozen_at_limit_ = false;
   Eigen::VectorXd w_;         // W^-1 diagonal with frozen dofs zeroed
   Eigen::VectorXd range_;     // r_i: W^-1 = diag(r_i^2)
   Eigen::VectorXd range_sq_;  // r_i^2
