@@ -61,6 +61,8 @@ WholeBodySolver::WholeBodySolver(const Model& model, int max_rows, const SolverP
   z_.setZero(m);
   g_.setZero(n);
   previous_null_.setZero(n);
+  previous_qdot_.setZero(n);
+  previous_xdot_.setZero(m);
   out_.qdot.setZero(n);
   out_.qdot_task.setZero(n);
   out_.qdot_null.setZero(n);
@@ -77,6 +79,9 @@ void WholeBodySolver::reset() {
   previous_null_.setZero();
   frozen_at_limit_.setConstant(false);
   any_frozen_at_limit_ = false;
+  previous_qdot_.setZero();
+  previous_xdot_rows_ = -1;
+  damping_factor_ = 1.0;
   previous_rows_ = -1;
   last_estimate_ = 0.0;
 }
@@ -386,11 +391,12 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
   if (lambda_min < eps2) {
     flags |= kDamped;
     const double max2 = parameters_.max_damping * parameters_.max_damping;
-    mu2 = max2 * (1.0 - std::max(lambda_min, 0.0) / eps2);
+    // lambda^2 from sigma_min, times the factor adapt_damping() raised after an overshoot.
+    mu2 = damping_factor_ * max2 * (1.0 - std::max(lambda_min, 0.0) / eps2);
     elimination.add_damping(A_.data(), A_.outerStride(), mu2, 0.0);  // A + mu^2 E (its Schur complement)
     if (!factorize(mk)) {
-      elimination.add_damping(A_.data(), A_.outerStride(), max2, mu2);
-      mu2 = max2;
+      elimination.add_damping(A_.data(), A_.outerStride(), damping_factor_ * max2, mu2);
+      mu2 = damping_factor_ * max2;
       factorize(mk);
     }
     out_.damping = std::sqrt(mu2);
@@ -445,7 +451,7 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
     return status;
   }
   // A dof at a position limit that the solution would drive further out is frozen and the
-  // solve repeated (at most three times): the other dofs take over its share.
+  // solve repeated (at most kMaxFreezeRounds times): the other dofs take over its share.
   free_ = free_dofs;
   for (int attempt = 0;; ++attempt) {
     const std::uint32_t flags = resolve(J, xdot, gradient);
@@ -457,7 +463,7 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
       return status;
     }
     bool changed = false;
-    if (q != nullptr && attempt < 3) {
+    if (q != nullptr && attempt < kMaxFreezeRounds) {
       for (int i = 0; i < n; ++i) {
         const double v = out_.qdot_task[i] + out_.qdot_null[i];
         const bool outwards = ((*q)[i] <= model_.lower_limits()[i] && v < 0.0) ||
@@ -564,7 +570,31 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
     status.flags |= kInvalidInput;
   }
   previous_null_ = out_.qdot_null;
+  if (damping_factor_ > 1.0 && (status.flags & kDamped)) status.flags |= kDampingRaised;
+  adapt_damping(xdot, status.flags);
   return status;
+}
+
+void WholeBodySolver::adapt_damping(const Eigen::Ref<const Eigen::VectorXd>& xdot, std::uint32_t flags) {
+  const int n = model_.num_dofs();
+  const int m = static_cast<int>(xdot.size());
+  if (!(flags & kDamped)) {
+    damping_factor_ = 1.0;  // out of the singular region: the paper's damping again
+  } else if (m == previous_xdot_rows_) {
+    // q_dot turned back (more than 120 degrees) at a comparable size while the command did
+    // not turn (less than 60 degrees): the damped step overshot (docs/solver.md).
+    const double a = out_.qdot.norm(), b = previous_qdot_.norm();
+    const double c = xdot.norm(), d = previous_xdot_.head(m).norm();
+    bool noticeable = false;  // some dof's rate changed by more than 1 % of its speed limit
+    for (int i = 0; i < n; ++i)
+      noticeable = noticeable || std::abs(out_.qdot[i] - previous_qdot_[i]) > 0.01 * model_.max_speeds()[i];
+    if (noticeable && a > 0.5 * b && out_.qdot.dot(previous_qdot_) < -0.5 * a * b &&
+        xdot.dot(previous_xdot_.head(m)) > 0.5 * c * d)
+      damping_factor_ = std::min(kDampingFactorStep * damping_factor_, kMaxDampingFactor);
+  }
+  previous_qdot_ = out_.qdot;
+  previous_xdot_.head(m) = xdot;
+  previous_xdot_rows_ = m;
 }
 
 Eigen::MatrixXd WholeBodySolver::pseudo_inverse(const Eigen::MatrixXd& J, const Mask& free_dofs) {

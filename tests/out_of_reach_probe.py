@@ -10,8 +10,15 @@ prints for each the largest joint acceleration in the last 1.5 s (second differe
 the recorded configurations) and the hands' final errors, then how many runs exceed 10,
 100 and 1,000 rad/s^2. docs/solver.md quotes its counts. With --check (CTest
 out_of_reach_probe) it fails when a run exceeds 10 rad/s^2 there: every one comes to rest
-(the largest 0.5 rad/s^2), so a change that unsettles one shows. Standard library only.
+(the largest 0.5 rad/s^2), so a change that unsettles one shows.
+
+  python3 tests/out_of_reach_probe.py WBM OUT_DIR --random-seeds 1,3,4 [--check]
+
+runs the same on seeded random variants of the shipped humanoids and the dual-arm robot
+instead (tests/random_robot.py, written into OUT_DIR; CTest
+out_of_reach_probe_random_robots): robots nobody has tuned for. Standard library only.
 """
+import argparse
 import csv
 import itertools
 import json
@@ -77,14 +84,39 @@ def largest_acceleration(trajectory, after):
 KNOWN_ABOVE = {10: 0, 100: 0, 1000: 0}  # runs still moving in the last 1.5 s (docs/solver.md)
 
 
+def random_variants(seeds, out):
+    """Random variants (tests/random_robot.py) of the robots below, for each seed."""
+    robots = {}
+    for seed in seeds:
+        for robot_id in ("g1_29", "h1", "atlas", "nao", "dual"):
+            urdf, *rest = ROBOTS[robot_id]
+            path = os.path.join(out, f"{robot_id}_random{seed}.urdf")
+            subprocess.run([sys.executable, os.path.join(ROOT, "tests", "random_robot.py"),
+                            os.path.join(MODELS, urdf), str(seed), path], check=True)
+            robots[f"{robot_id}_random{seed}"] = (os.path.abspath(path), *rest)
+    return robots
+
+
 def main():
-    args = [a for a in sys.argv[1:] if a != "--check"]
-    check = len(args) != len(sys.argv) - 1
-    wbm = args[0] if len(args) > 0 else os.path.join(ROOT, "build", "wbm")
-    out = args[1] if len(args) > 1 else tempfile.mkdtemp(prefix="wbm_out_of_reach_")
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("wbm", nargs="?", default=os.path.join(ROOT, "build", "wbm"))
+    parser.add_argument("out", nargs="?")
+    parser.add_argument("--check", action="store_true", help="exit 1 if a run is still moving")
+    parser.add_argument("--random-seeds", help="comma-separated seeds: random variants instead")
+    options = parser.parse_args()
+    wbm = options.wbm
+    out = options.out or tempfile.mkdtemp(prefix="wbm_out_of_reach_")
+    check = options.check
     os.makedirs(out, exist_ok=True)
+    robots = ROBOTS
+    if options.random_seeds:
+        try:
+            seeds = [int(seed) for seed in options.random_seeds.split(",")]
+        except ValueError:
+            parser.error(f"--random-seeds: expected comma-separated whole numbers, got '{options.random_seeds}'")
+        robots = random_variants(seeds, out)
     results = []
-    for (robot_id, robot), (target_id, offset), balance in itertools.product(ROBOTS.items(), TARGETS.items(),
+    for (robot_id, robot), (target_id, offset), balance in itertools.product(robots.items(), TARGETS.items(),
                                                                                (False, True)):
         if balance and robot[4] is None:
             continue
@@ -100,7 +132,7 @@ def main():
         with open(os.path.join(out, name, "summary.json"), encoding="utf-8") as f:
             errors = {k: v["final_error"] for k, v in json.load(f)["elements"].items()}
         results.append(worst)
-        print(f"{name:24s} {worst:10.1f} rad/s^2 ({dof}); hands short by {errors['l']:.0f} and {errors['r']:.0f} mm",
+        print(f"{name:30s} {worst:10.1f} rad/s^2 ({dof}); hands short by {errors['l']:.0f} and {errors['r']:.0f} mm",
               flush=True)
     failed = False
     for bound in (10, 100, 1000):

@@ -373,6 +373,28 @@ TEST(Scenarios, DofsHeldAtTheirLimitsComeToRest) {
   }
 }
 
+// A joint without limits at a singularity: a two-link arm whose continuous elbow
+// straightens towards a target out of reach. With the damping of sigma_min alone the
+// damped step overshot the stretched configuration and the elbow swung through it and back
+// every cycle (4,400 rad/s^2); the solver now raises the damping where q_dot turns back
+// under an unchanged command, and the arm comes to rest.
+TEST(Scenarios, AJointWithoutLimitsComesToRestAtASingularity) {
+  const Scenario s = parse_scenario(
+      "name: stretch\nrobot: {urdf: '" + wbm_test::source_path("tests/data/continuous_elbow.urdf") +
+          "', fixed_base: true}\n"
+          "dt: 0.002\nduration: 6\nrecord_every: 1\ninitial: {elbow: -0.5, shoulder: -0.5}\n"
+          "tasks: [{name: tool, type: position, frame: tool, filter: {bandwidth: 4, max_speed: 0.4}}]\n"
+          "timeline: [{t: 0.1, activate: [tool], relative_targets: {tool: [0.6, 0, 0.3]}}]\n",
+      "stretch.yaml", ".");
+  const auto run = run_scenario(s);
+  EXPECT_GT(run->error.back()[run->element("tool")], 0.3);  // out of reach
+  const auto [acceleration, dof] = largest_acceleration_after(*run, 4.5);
+  EXPECT_LT(acceleration, 10.0) << dof << " still accelerates at " << acceleration << " rad/s^2 in the last 1.5 s";
+  int raised = 0;
+  for (const std::uint32_t flags : run->flags) raised += (flags & kDampingRaised) ? 1 : 0;
+  EXPECT_GT(raised, 0);
+}
+
 /// The report's data (the JSON written into the page's template).
 nlohmann::json report_data(const ScenarioRun& run) {
   const std::string page = render_report(run);

@@ -749,6 +749,70 @@ TEST(Solver, QdotIsContinuousWhereADofIsReleasedFromItsLimit) {
   EXPECT_LT(frozen, 2 * steps / 3);
 }
 
+// Near a singularity the damping is raised (x4 per overshoot, kDampingRaised) where q_dot
+// turns back between two solves under an unchanged command, and returns to that of
+// sigma_min after an undamped solve. A command that turns, or a new row count, raises
+// nothing. One row through the elbow with a coefficient +-s below the threshold stands in
+// for a configuration that crosses the singularity every cycle.
+TEST(Solver, DampingIsRaisedWhereQdotTurnsBackUnderTheSameCommand) {
+  const Model model = make_paper_model();
+  const int n = model.num_dofs();
+  const int elbow = model.dof_index("l_elbow");
+  const double range = model.dof(elbow).work_range;
+  WholeBodySolver solver(model, 2);
+  const Mask free = Mask::Constant(n, true);
+  const VectorXd gradient = VectorXd::Zero(n);
+  const double s = 0.25 * solver.parameters().singular_threshold / range;  // sigma_min = eps / 4
+  auto row = [&](double coefficient) {
+    MatrixXd J = MatrixXd::Zero(1, n);
+    J(0, elbow) = coefficient;
+    return J;
+  };
+  const VectorXd xdot = VectorXd::Constant(1, 1.0);
+  const double max2 = solver.parameters().max_damping * solver.parameters().max_damping;
+  const double base = max2 * (1.0 - 1.0 / 16.0);  // lambda^2 of sigma_min alone
+  SolverStatus st = solver.solve(row(s), xdot, gradient, free, 0.001);
+  ASSERT_TRUE(st.has(kDamped));
+  EXPECT_FALSE(st.has(kDampingRaised));
+  EXPECT_NEAR(solver.output().damping, std::sqrt(base), 1e-9);
+  // The same command, the configuration across the singularity: q_dot turns back.
+  st = solver.solve(row(-s), xdot, gradient, free, 0.001);
+  EXPECT_FALSE(st.has(kDampingRaised));  // raised from the next solve on
+  st = solver.solve(row(s), xdot, gradient, free, 0.001);
+  EXPECT_TRUE(st.has(kDampingRaised));
+  EXPECT_NEAR(solver.output().damping, std::sqrt(4.0 * base), 1e-9);
+  // Raised again at each further turn of a comparable size (after a raise q_dot shrinks,
+  // so every other turn), up to the bound.
+  for (int k = 0; k < 40; ++k) solver.solve(row(k % 2 ? s : -s), xdot, gradient, free, 0.001);
+  EXPECT_NEAR(solver.output().damping, std::sqrt(WholeBodySolver::kMaxDampingFactor * base), 1e-9);
+  EXPECT_TRUE(std::isfinite(solver.output().qdot[elbow]));
+  // An undamped solve resets it.
+  st = solver.solve(row(1.0), xdot, gradient, free, 0.001);
+  EXPECT_FALSE(st.has(kDamped) || st.has(kDampingRaised));
+  st = solver.solve(row(s), xdot, gradient, free, 0.001);
+  EXPECT_FALSE(st.has(kDampingRaised));
+  EXPECT_NEAR(solver.output().damping, std::sqrt(base), 1e-9);
+  // q_dot turns back because the command did: nothing raised.
+  for (int k = 1; k <= 4; ++k) {
+    st = solver.solve(row(s), k % 2 ? VectorXd(-xdot) : xdot, gradient, free, 0.001);
+    EXPECT_FALSE(st.has(kDampingRaised)) << k;
+  }
+  // Nor across a change of the row count (a task switched on or off).
+  MatrixXd two = MatrixXd::Zero(2, n);
+  two(0, elbow) = -s;
+  two(1, model.dof_index("head_pan")) = 1.0;
+  solver.solve(two, Eigen::Vector2d(1.0, 0.0), gradient, free, 0.001);
+  st = solver.solve(row(s), xdot, gradient, free, 0.001);
+  EXPECT_FALSE(st.has(kDampingRaised));
+  // reset() forgets a raised damping.
+  for (int k = 0; k < 4; ++k) solver.solve(row(k % 2 ? s : -s), xdot, gradient, free, 0.001);
+  ASSERT_GT(solver.output().damping, std::sqrt(base) * 1.5);
+  solver.reset();
+  st = solver.solve(row(s), xdot, gradient, free, 0.001);
+  EXPECT_FALSE(st.has(kDampingRaised));
+  EXPECT_NEAR(solver.output().damping, std::sqrt(base), 1e-9);
+}
+
 // Error clamping: an element's feedback term gain * e, over its active rows, is scaled to
 // feedback_limit() where its norm exceeds it (direction kept); the errors themselves, and
 // the feed-forward rate, are untouched. A controller sets the limit to the filter's speed.

@@ -71,9 +71,9 @@ class Controller {
   /// One cycle of duration dt [s]. Never allocates, never throws, never writes NaN.
   ///
   /// A dof that sits at a position limit and would be driven further out is frozen for
-  /// this cycle and the solve repeated (at most three times), so that the other dofs take
-  /// over its share instead of the task stalling against the clamp (IV.E clamps; this keeps
-  /// the clamp from fighting the task).
+  /// this cycle and the solve repeated (at most WholeBodySolver::kMaxFreezeRounds times),
+  /// so that the other dofs take over its share instead of the task stalling against the
+  /// clamp (IV.E clamps; this keeps the clamp from fighting the task).
   ControllerStatus update(const Command& command, double dt);
 
   const Model& model() const { return model_; }

@@ -48,6 +48,7 @@ enum SolverFlag : std::uint32_t {
   kInvalidInput = 1u << 7,          ///< NaN/inf input or wrong sizes: q_dot = 0, state kept.
   kJointLimitClamped = 1u << 8,     ///< A joint was clamped at its limit (integrate()).
   kDofAtLimitFrozen = 1u << 9,      ///< A dof at its limit was frozen for the cycle (Controller).
+  kDampingRaised = 1u << 10,        ///< Damped more than sigma_min alone gives: q_dot overshot near a singularity.
 };
 
 struct SolverStatus {
@@ -106,20 +107,33 @@ class WholeBodySolver {
   /// @param gradient dH/dq (nq); @param free_dofs b_C (nq); @param dt cycle time [s] (jerk limit).
   /// @param q optional current configuration (nq): a dof at a position limit that the
   ///   solution would drive further out is then frozen for this solve and the solve repeated
-  ///   (at most three times; kDofAtLimitFrozen), so that the other dofs take over its share
-  ///   instead of the task stalling against the clamp.
+  ///   (at most kMaxFreezeRounds times; kDofAtLimitFrozen), so that the other dofs take over
+  ///   its share instead of the task stalling against the clamp.
+  /// Near a singularity the damping is raised (kDampingRaised) after q_dot turned back
+  /// between two solves under an unchanged command, until a solve is undamped again.
   SolverStatus solve(const Eigen::Ref<const Eigen::MatrixXd>& J, const Eigen::Ref<const Eigen::VectorXd>& xdot,
                      const Eigen::Ref<const Eigen::VectorXd>& gradient, const Mask& free_dofs, double dt,
                      const Eigen::VectorXd* q = nullptr);
   const SolverOutput& output() const { return out_; }
-  /// Forget the previous null-space velocity (jerk limit) and eigenvector estimate.
+  /// Forget the previous null-space velocity (jerk limit), eigenvector estimate and
+  /// raised damping.
   void reset();
+
+  /// Repeated solves at most, each freezing more dofs at their limits (1 + this many solves).
+  static constexpr int kMaxFreezeRounds = 8;
+  /// Near a singularity, the damping lambda^2 is multiplied by this factor after each
+  /// overshoot (q_dot turning back while the command did not), up to kMaxDampingFactor.
+  static constexpr double kDampingFactorStep = 4.0;
+  static constexpr double kMaxDampingFactor = 256.0;
 
   /// Weighted (damped, as in solve) pseudo-inverse J# (nq x m) for analysis and tests.
   /// Allocates: not for the real-time cycle.
   Eigen::MatrixXd pseudo_inverse(const Eigen::MatrixXd& J, const Mask& free_dofs);
 
  private:
+  /// Raises the damping factor after an overshoot, resets it to 1 after an undamped solve,
+  /// and keeps this solve's q_dot and x_dot for the next.
+  void adapt_damping(const Eigen::Ref<const Eigen::VectorXd>& xdot, std::uint32_t flags);
   /// Unscaled task and null-space parts for the dofs in free_; returns status flags.
   std::uint32_t resolve(const Eigen::Ref<const Eigen::MatrixXd>& J, const Eigen::Ref<const Eigen::VectorXd>& xdot,
                         const Eigen::Ref<const Eigen::VectorXd>& gradient);
@@ -175,6 +189,10 @@ class WholeBodySolver {
   Eigen::VectorXd inverse_diagonal_;  // D^-1
   Eigen::VectorXd y_, v_, g_, u_, u_rhs_, z_;  // z_: the kept part of v
   Eigen::VectorXd previous_null_;
+  Eigen::VectorXd previous_qdot_;  // the last solve's q_dot and x_dot (adapt_damping)
+  Eigen::VectorXd previous_xdot_;
+  int previous_xdot_rows_ = -1;
+  double damping_factor_ = 1.0;   // times lambda^2 from sigma_min, while near a singularity
   int previous_rows_ = -1;
   double last_estimate_ = 0.0;
   SolverOutput out_;
