@@ -579,8 +579,11 @@ void WholeBodySolver::adapt_damping(const Eigen::Ref<const Eigen::VectorXd>& xdo
   const int n = model_.num_dofs();
   const int m = static_cast<int>(xdot.size());
   if (!(flags & kDamped)) {
-    damping_factor_ = 1.0;  // out of the singular region: the paper's damping again
-  } else if (m == previous_xdot_rows_) {
+    damping_factor_ = 1.0;  // out of the singular region: lambda from sigma_min again
+    previous_xdot_rows_ = -1;  // nothing to compare the next solve with (no copies here)
+    return;
+  }
+  if (m == previous_xdot_rows_) {
     // q_dot turned back (more than 120 degrees) at a comparable size while the command did
     // not turn (less than 60 degrees): the damped step overshot (docs/solver.md).
     const double a = out_.qdot.norm(), b = previous_qdot_.norm();
