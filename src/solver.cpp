@@ -460,6 +460,7 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
       out_.qdot_task.setZero();
       out_.qdot_null.setZero();
       previous_null_.setZero();
+      previous_xdot_rows_ = -1;  // q_dot = 0 is nothing to compare the next solve with
       return status;
     }
     bool changed = false;
