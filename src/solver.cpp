@@ -82,6 +82,7 @@ void WholeBodySolver::reset() {
   previous_qdot_.setZero();
   previous_xdot_rows_ = -1;
   damping_factor_ = 1.0;
+  effective_damping_factor_ = 1.0;
   previous_rows_ = -1;
   last_estimate_ = 0.0;
 }
@@ -392,11 +393,11 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
     flags |= kDamped;
     const double max2 = parameters_.max_damping * parameters_.max_damping;
     // lambda^2 from sigma_min, times the factor adapt_damping() raised after an overshoot.
-    mu2 = damping_factor_ * max2 * (1.0 - std::max(lambda_min, 0.0) / eps2);
+    mu2 = effective_damping_factor_ * max2 * (1.0 - std::max(lambda_min, 0.0) / eps2);
     elimination.add_damping(A_.data(), A_.outerStride(), mu2, 0.0);  // A + mu^2 E (its Schur complement)
     if (!factorize(mk)) {
-      elimination.add_damping(A_.data(), A_.outerStride(), damping_factor_ * max2, mu2);
-      mu2 = damping_factor_ * max2;
+      elimination.add_damping(A_.data(), A_.outerStride(), effective_damping_factor_ * max2, mu2);
+      mu2 = effective_damping_factor_ * max2;
       factorize(mk);
     }
     out_.damping = std::sqrt(mu2);
@@ -449,6 +450,14 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
       (q != nullptr && q->size() != n)) {
     status.flags |= kInvalidInput;
     return status;
+  }
+  // A raised damping holds as long as the command is as fast as when it was raised: the
+  // overshoot it stops grows with |x_dot| (docs/solver.md), and a command that slows down
+  // (the error shrinking, a target back in reach) needs less, down to none.
+  effective_damping_factor_ = 1.0;
+  if (damping_factor_ > 1.0) {
+    const double rate = std::min(1.0, xdot.norm() / raised_at_rate_);
+    effective_damping_factor_ = std::max(1.0, damping_factor_ * rate);
   }
   // A dof at a position limit that the solution would drive further out is frozen and the
   // solve repeated (at most kMaxFreezeRounds times): the other dofs take over its share.
@@ -571,7 +580,7 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
     status.flags |= kInvalidInput;
   }
   previous_null_ = out_.qdot_null;
-  if (damping_factor_ > 1.0 && (status.flags & kDamped)) status.flags |= kDampingRaised;
+  if (effective_damping_factor_ > 1.0 && (status.flags & kDamped)) status.flags |= kDampingRaised;
   adapt_damping(xdot, status.flags);
   return status;
 }
@@ -593,8 +602,10 @@ void WholeBodySolver::adapt_damping(const Eigen::Ref<const Eigen::VectorXd>& xdo
     for (int i = 0; i < n; ++i)
       noticeable = noticeable || std::abs(out_.qdot[i] - previous_qdot_[i]) > 0.01 * model_.max_speeds()[i];
     if (noticeable && a > 0.5 * b && out_.qdot.dot(previous_qdot_) < -0.5 * a * b &&
-        xdot.dot(previous_xdot_.head(m)) > 0.5 * c * d)
-      damping_factor_ = std::min(kDampingFactorStep * damping_factor_, kMaxDampingFactor);
+        xdot.dot(previous_xdot_.head(m)) > 0.5 * c * d) {
+      damping_factor_ = std::min(kDampingFactorStep * effective_damping_factor_, kMaxDampingFactor);
+      raised_at_rate_ = c;
+    }
   }
   previous_qdot_ = out_.qdot;
   previous_xdot_.head(m) = xdot;

@@ -750,8 +750,8 @@ TEST(Solver, QdotIsContinuousWhereADofIsReleasedFromItsLimit) {
 }
 
 // Near a singularity the damping is raised (x4 per overshoot, kDampingRaised) where q_dot
-// turns back between two solves under an unchanged command, and returns to that of
-// sigma_min after an undamped solve. A command that turns, or a new row count, raises
+// turns back between two solves under an unchanged command, in proportion to the command's
+// speed against that at the raise, and returns to that of sigma_min after an undamped solve. A command that turns, or a new row count, raises
 // nothing. One row through the elbow with a coefficient +-s below the threshold stands in
 // for a configuration that crosses the singularity every cycle.
 TEST(Solver, DampingIsRaisedWhereQdotTurnsBackUnderTheSameCommand) {
@@ -786,6 +786,16 @@ TEST(Solver, DampingIsRaisedWhereQdotTurnsBackUnderTheSameCommand) {
   for (int k = 0; k < 40; ++k) solver.solve(row(k % 2 ? s : -s), xdot, gradient, free, 0.001);
   EXPECT_NEAR(solver.output().damping, std::sqrt(WholeBodySolver::kMaxDampingFactor * base), 1e-9);
   EXPECT_TRUE(std::isfinite(solver.output().qdot[elbow]));
+  // A slower command needs less (the overshoot grows with |x_dot|): a quarter of the rate,
+  // a quarter of the raise; at 1/512 of it, none.
+  st = solver.solve(row(s), VectorXd(0.25 * xdot), gradient, free, 0.001);
+  EXPECT_TRUE(st.has(kDampingRaised));
+  EXPECT_NEAR(solver.output().damping, std::sqrt(WholeBodySolver::kMaxDampingFactor / 4.0 * base), 1e-9);
+  st = solver.solve(row(s), VectorXd(xdot / 512.0), gradient, free, 0.001);
+  EXPECT_FALSE(st.has(kDampingRaised));
+  EXPECT_NEAR(solver.output().damping, std::sqrt(base), 1e-9);
+  st = solver.solve(row(s), xdot, gradient, free, 0.001);  // as fast again: the whole raise
+  EXPECT_NEAR(solver.output().damping, std::sqrt(WholeBodySolver::kMaxDampingFactor * base), 1e-9);
   // An undamped solve resets it.
   st = solver.solve(row(1.0), xdot, gradient, free, 0.001);
   EXPECT_FALSE(st.has(kDamped) || st.has(kDampingRaised));

@@ -122,7 +122,8 @@ class WholeBodySolver {
   /// Repeated solves at most, each freezing more dofs at their limits (1 + this many solves).
   static constexpr int kMaxFreezeRounds = 8;
   /// Near a singularity, the damping lambda^2 is multiplied by this factor after each
-  /// overshoot (q_dot turning back while the command did not), up to kMaxDampingFactor.
+  /// overshoot (q_dot turning back while the command did not), up to kMaxDampingFactor;
+  /// the raise shrinks with the command's speed |x_dot| against that at the raise.
   static constexpr double kDampingFactorStep = 4.0;
   static constexpr double kMaxDampingFactor = 256.0;
 
@@ -193,6 +194,8 @@ class WholeBodySolver {
   Eigen::VectorXd previous_xdot_;
   int previous_xdot_rows_ = -1;
   double damping_factor_ = 1.0;   // times lambda^2 from sigma_min, while near a singularity
+  double raised_at_rate_ = 1.0;   // |x_dot| when it was last raised
+  double effective_damping_factor_ = 1.0;  // this solve's: scaled by |x_dot| / raised_at_rate_
   int previous_rows_ = -1;
   double last_estimate_ = 0.0;
   SolverOutput out_;
