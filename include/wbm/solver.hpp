@@ -110,7 +110,8 @@ class WholeBodySolver {
   ///   (at most kMaxFreezeRounds times; kDofAtLimitFrozen), so that the other dofs take over
   ///   its share instead of the task stalling against the clamp.
   /// Near a singularity the damping is raised (kDampingRaised) after q_dot turned back
-  /// between two solves under an unchanged command, until a solve is undamped again.
+  /// between two solves under an unchanged command, in proportion to |x_dot| against its
+  /// value then, until a solve is undamped again (docs/solver.md).
   SolverStatus solve(const Eigen::Ref<const Eigen::MatrixXd>& J, const Eigen::Ref<const Eigen::VectorXd>& xdot,
                      const Eigen::Ref<const Eigen::VectorXd>& gradient, const Mask& free_dofs, double dt,
                      const Eigen::VectorXd* q = nullptr);
