@@ -26,6 +26,14 @@ json value_or_null(double v) { return std::isfinite(v) ? json(v) : json(nullptr)
 /// 3.8 MB written with 17 digits, 1.2 MB rounded).
 double micrometres(double x) { return std::round(x * 1e6) / 1e6; }  // "/": the double nearest to n um
 
+/// One foot on the ground for the 3D view: its outline from `time` [s] on.
+json footprint(double time, bool left, const FootPose& pose, const FootGeometry& feet) {
+  const SupportPolygon outline = SupportPolygon::from_feet({pose}, feet);
+  json polygon = json::array();
+  for (const Vector2& p : outline.vertices()) polygon.push_back(json::array({p.x(), p.y()}));
+  return {{"t", time}, {"side", left ? "L" : "R"}, {"polygon", polygon}};
+}
+
 }  // namespace
 
 std::string render_report(const ScenarioRun& run) {
@@ -139,12 +147,7 @@ std::string render_report(const ScenarioRun& run) {
     for (int k : samples) real.push_back(json::array({run.walking[k][0], run.walking[k][1], 0.0}));
     paths.push_back({{"name", "real heel (between the feet)"}, {"points", real}});
     json prints = json::array();
-    for (const Footstep& f : run.footsteps) {
-      const SupportPolygon one = SupportPolygon::from_feet({f.pose}, run.feet);
-      json poly = json::array();
-      for (const Vector2& v : one.vertices()) poly.push_back(json::array({v.x(), v.y()}));
-      prints.push_back({{"t", f.time}, {"side", f.left ? "L" : "R"}, {"polygon", poly}});
-    }
+    for (const Footstep& f : run.footsteps) prints.push_back(footprint(f.time, f.left, f.pose, run.feet));
     data["footprints"] = prints;
   }
   if (!run.balance.empty()) {
@@ -157,13 +160,8 @@ std::string render_report(const ScenarioRun& run) {
       const Vector2 heel(run.q[0][v.heel_x], run.q[0][v.heel_y]);
       const double yaw = run.q[0][v.heel_yaw];
       json prints = json::array();
-      for (const bool left : {true, false}) {
-        const SupportPolygon foot =
-            SupportPolygon::from_feet({standing_foot(left, heel, yaw, run.feet.spacing)}, run.feet);
-        json poly = json::array();
-        for (const Vector2& p : foot.vertices()) poly.push_back(json::array({p.x(), p.y()}));
-        prints.push_back({{"t", run.time.front()}, {"side", left ? "L" : "R"}, {"polygon", poly}});
-      }
+      for (const bool left : {true, false})
+        prints.push_back(footprint(run.time.front(), left, standing_foot(left, heel, yaw, run.feet.spacing), run.feet));
       data["footprints"] = prints;
     }
   }

@@ -1,9 +1,8 @@
 #include "wbm/walking.hpp"
 
-#include <sstream>
-
 #include <algorithm>
 #include <cmath>
+#include <sstream>
 
 #include "wbm/errors.hpp"
 
