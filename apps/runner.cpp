@@ -92,6 +92,13 @@ double distance(const std::string& type, const Eigen::Ref<const Eigen::VectorXd>
     return std::atan2(u.cross(v).norm(), u.dot(v));
   }
   const bool all = !rows.any();
+  if (type == "attitude" && (all || rows.all()) && a.allFinite() && b.allFinite()) {
+    // The angle of the rotation between the two (what the element's error is then): Kardan
+    // angles past 90 degrees of pitch name the same rotation as others within.
+    const Eigen::AngleAxisd between(AttitudeTask::kardan_rotation(a.head<3>()).transpose() *
+                                    AttitudeTask::kardan_rotation(b.head<3>()));
+    return between.angle();
+  }
   auto difference = [&](int i) {
     return type == "attitude" ? std::remainder(a[i] - b[i], 2.0 * M_PI) : a[i] - b[i];
   };

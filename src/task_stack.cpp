@@ -84,6 +84,7 @@ int TaskStack::assemble(const Model& model, const Data& data) {
     if (active == 0) continue;
     const int t0 = target_offset_[i];
     const bool all = active == e.dim();
+    e.all_rows_active_ = all;
     // All rows active (the common case): the element writes straight into the assembled
     // Jacobian; otherwise into its full rows, and the active ones are copied.
     e.evaluate(model, data, targets_.segment(t0, e.target_dim()), rates_.segment(t0, e.target_dim()),

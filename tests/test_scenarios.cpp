@@ -406,6 +406,33 @@ TEST(Scenarios, AJointWithoutLimitsComesToRestAtASingularity) {
   EXPECT_LT(again->error.back()[again->element("tool")], 1e-4);
 }
 
+// An attitude target pitched past 90 degrees: the dual-arm robot's tools turned by Kardan
+// angles (0, 3, 1) rad from where they are, a rotation the arms reach. With the error taken
+// as differences of the angles, whose pitch never exceeds 90 degrees, the tools pitched to
+// gimbal lock, where the frame's angles jump by pi, and the arms chattered at every cycle
+// (225 rad/s^2, 183 degrees short); the rotation error reaches the target.
+TEST(Scenarios, AttitudeTargetPitchedPastNinetyDegreesIsReached) {
+  const Scenario s = parse_scenario(
+      "name: turn\nrobot: {urdf: '" + wbm_test::shipped_model("dual_arm").path +
+          "', fixed_base: true}\ndt: 0.002\nduration: 8\nrecord_every: 1\n"
+          "tasks: [{name: a, type: attitude, frame: left_tool, filter: {bandwidth: 4, max_speed: 0.8}},\n"
+          "        {name: b, type: attitude, frame: right_tool, filter: {bandwidth: 4, max_speed: 0.8}}]\n"
+          "timeline: [{t: 0.2, activate: [a, b], relative_targets: {a: [0, 3, 1], b: [0, 3, 1]}}]\n",
+      "turn.yaml", ".");
+  const auto run = run_scenario(s);
+  for (const char* element : {"a", "b"}) {
+    const int i = run->element(element);
+    EXPECT_LT(run->error.back()[i], 1e-4) << element << ": " << run->error.back()[i] << " rad short";
+    // The Kardan angles of the frame differ from the target's (pitch within 90 degrees),
+    // the rotation is the same.
+    EXPECT_GT(std::abs(run->actual_of(element, static_cast<int>(run->time.size()) - 1)[1] -
+                       run->commanded_of(element, static_cast<int>(run->time.size()) - 1)[1]),
+              1.0);
+  }
+  const auto [acceleration, dof] = largest_acceleration_after(*run, 6.5);
+  EXPECT_LT(acceleration, 10.0) << dof << " still accelerates at " << acceleration << " rad/s^2 in the last 1.5 s";
+}
+
 /// The report's data (the JSON written into the page's template).
 nlohmann::json report_data(const ScenarioRun& run) {
   const std::string page = render_report(run);

@@ -508,6 +508,53 @@ TEST(AxisTask, DegenerateCasesAreDefinedAndContinuous) {
   EXPECT_EQ(solve_for(-a), opposite);
 }
 
+// Attitude error with all rows active: the rotation to the target on Kardan rates, the same
+// for the two angle triples of one rotation ((a, b, c) and (a + pi, pi - b, c + pi), also
+// with |b| > 90 degrees), and the differences of the angles to first order; with one row
+// active (through a TaskStack), that angle's wrapped difference exactly.
+TEST(AttitudeTask, ErrorIsTheRotationToTheTargetWithAllRowsAndTheAngleWithOne) {
+  const Model model = make_paper_model();
+  Data data(model);
+  AttitudeTask task(model, "a", "r_hand_ref");
+  TaskStack stack(model);
+  stack.add(std::make_unique<AttitudeTask>(model, "a", "r_hand_ref"));
+  std::mt19937_64 rng(47);
+  std::uniform_real_distribution<double> angle(-M_PI, M_PI);
+  const int n = model.num_dofs();
+  MatrixXd J(3, n), J_twin(3, n);
+  Eigen::VectorXd e(3), e_twin(3), r(3), r_twin(3);
+  for (int c = 0; c < property_cases(); ++c) {
+    const VectorXd q = wbm_test::random_configuration(model, rng);
+    forward_kinematics(model, data, q);
+    Vector3 angles;
+    task.value(model, data, angles);
+    const Vector3 t(angle(rng), angle(rng), angle(rng));  // pitch up to 180 degrees
+    const Vector3 twin(t.x() + M_PI, M_PI - t.y(), t.z() + M_PI);
+    const Vector3 rate(angle(rng), angle(rng), angle(rng));
+    const Vector3 twin_rate(rate.x(), -rate.y(), rate.z());
+    ASSERT_LT((AttitudeTask::kardan_rotation(t) - AttitudeTask::kardan_rotation(twin)).norm(), 1e-12);
+    task.evaluate(model, data, t, rate, J, e, r);
+    task.evaluate(model, data, twin, twin_rate, J_twin, e_twin, r_twin);
+    ASSERT_LT((e - e_twin).norm(), 1e-9 * (1 + e.norm())) << "case " << c << " target " << t.transpose();
+    ASSERT_LT((r - r_twin).norm(), 1e-9 * (1 + r.norm())) << "case " << c;
+    // A small offset delta of the angles (away from gimbal lock): e = delta + O(delta^2).
+    if (std::abs(std::cos(angles.y())) > 0.3) {
+      const Vector3 delta = 1e-5 * Vector3(angle(rng), angle(rng), angle(rng));
+      task.evaluate(model, data, angles + delta, Vector3::Zero(), J, e, r);
+      ASSERT_LT((e - delta).norm(), 1e-8) << "case " << c << " e " << e.transpose() << " delta " << delta.transpose();
+    }
+    // One row active: exactly the wrapped difference of that angle.
+    for (int row = 0; row < 3; ++row) {
+      stack.activation().setConstant(false);
+      stack.activation()[row] = true;
+      stack.targets() = t;
+      stack.target_rates().setZero();
+      ASSERT_EQ(stack.assemble(model, data), 1);
+      ASSERT_NEAR(stack.errors()[row], std::remainder(t[row] - angles[row], 2 * M_PI), 1e-12) << "row " << row;
+    }
+  }
+}
+
 TEST(Solver, BoundedAndContinuousThroughASingularity) {
   // Stretch the left arm through elbow = 0 (its upper limit, the singular configuration)
   // with the hand commanded 0.3 m beyond reach: q_dot stays bounded and changes

@@ -40,6 +40,10 @@ class TaskElement {
   /// @throws ConfigError if gain < 0 or not finite.
   void set_gain(double gain);
 
+  /// True while every row of the element is active: set by TaskStack::assemble before it
+  /// calls evaluate() (true for an element evaluated on its own). An element whose rows
+  /// interact (AttitudeTask) may compute its error differently when all are active.
+  bool all_rows_active() const { return all_rows_active_; }
   /// True if the element reads the centre of mass (the controller then computes it).
   virtual bool needs_center_of_mass() const { return false; }
 
@@ -54,7 +58,9 @@ class TaskElement {
                         Eigen::Ref<Eigen::VectorXd> error, Eigen::Ref<Eigen::VectorXd> rate) = 0;
 
  private:
+  friend class TaskStack;  // sets all_rows_active_
   std::string name_;
+  bool all_rows_active_ = true;
   int dim_;
   int target_dim_;
   TargetKind kind_;

@@ -28,6 +28,14 @@ Matrix3 AttitudeTask::kardan_rotation(const Vector3& angles) {
       .toRotationMatrix();
 }
 
+Matrix3 AttitudeTask::kardan_rate_matrix(const Vector3& angles) {
+  const double sa = std::sin(angles.x()), ca = std::cos(angles.x());
+  const double sb = std::sin(angles.y()), cb = std::cos(angles.y());
+  Matrix3 E;
+  E << 1.0, 0.0, sb, 0.0, ca, -sa * cb, 0.0, sa, ca * cb;
+  return E;
+}
+
 void AttitudeTask::value(const Model& model, const Data& data, Eigen::Ref<Eigen::VectorXd> x) {
   x = kardan_angles(frame_.pose(model, data).R);
 }
@@ -35,7 +43,8 @@ void AttitudeTask::value(const Model& model, const Data& data, Eigen::Ref<Eigen:
 void AttitudeTask::evaluate(const Model& model, const Data& data, const Eigen::Ref<const Eigen::VectorXd>& target,
                             const Eigen::Ref<const Eigen::VectorXd>& target_rate, Eigen::Ref<Eigen::MatrixXd> J,
                             Eigen::Ref<Eigen::VectorXd> error, Eigen::Ref<Eigen::VectorXd> rate) {
-  const Vector3 angles = kardan_angles(frame_.pose(model, data).R);
+  const Matrix3 R = frame_.pose(model, data).R;
+  const Vector3 angles = kardan_angles(R);
   const double sa = std::sin(angles.x()), ca = std::cos(angles.x());
   const double sb = std::sin(angles.y());
   double cb = std::cos(angles.y());
@@ -45,8 +54,15 @@ void AttitudeTask::evaluate(const Model& model, const Data& data, const Eigen::R
   E_inv << 1.0, sa * sb / cb, -ca * sb / cb, 0.0, ca, sa, 0.0, -sa / cb, ca / cb;
   frame_.rotational_jacobian(model, data, J3_);
   for (int c = 0; c < J.cols(); ++c) J.col(c) = E_inv * Vector3(J3_.col(c));
-  for (int i = 0; i < 3; ++i) error[i] = wrap(target[i] - angles[i]);
-  rate = target_rate;
+  if (!all_rows_active()) {
+    for (int i = 0; i < 3; ++i) error[i] = wrap(target[i] - angles[i]);
+    rate = target_rate;
+    return;
+  }
+  const Vector3 t = target;
+  const Eigen::AngleAxisd to_target(kardan_rotation(t) * R.transpose());
+  error = E_inv * (to_target.angle() * to_target.axis());
+  rate = E_inv * (kardan_rate_matrix(t) * Vector3(target_rate));
 }
 
 }  // namespace wbm

@@ -9,8 +9,16 @@ namespace wbm {
 /// The rows are the relative angular-velocity Jacobian projected on Kardan rates with
 /// d(a,b,c)/dt = E(a,b)^-1 w, E = [e_x, Rx(a) e_y, Rx(a) Ry(b) e_z]. The representation is
 /// singular at cos(b) = 0 (b = +-90 deg, gimbal lock): there cos(b) is kept at least 1e-3 in
-/// magnitude so the rows stay finite; the solver's damping bounds the joint rates. Errors
-/// are angle differences wrapped to (-pi, pi].
+/// magnitude so the rows stay finite.
+///
+/// Error: with some rows inactive, each active angle's difference to its target, wrapped
+/// to (-pi, pi]. With all three active, the rotation from the frame to the target,
+/// E^-1 log(R_target R^T) (angle times axis, mapped on Kardan rates), and the feed-forward
+/// rate E^-1 E_target d(target)/dt: both continuous across gimbal lock, where the angles of
+/// the frame jump by pi, and for targets with |b| > 90 deg, which no angles of the frame
+/// reach (the same rotation as (a + pi, pi - b, c + pi)). The two agree to first order, and
+/// exactly for one active row. Differences in angles alone made a frame pitched past 90
+/// degrees chatter at every cycle (docs/solver.md).
 class AttitudeTask : public TaskElement {
  public:
   /// @throws ModelError if a frame is unknown.
@@ -22,6 +30,8 @@ class AttitudeTask : public TaskElement {
   /// Kardan angles (a, b, c) of R = Rx(a) Ry(b) Rz(c).
   static Vector3 kardan_angles(const Matrix3& R);
   static Matrix3 kardan_rotation(const Vector3& angles);
+  /// E(a, b): Kardan rates to angular velocity, w = E d(a,b,c)/dt.
+  static Matrix3 kardan_rate_matrix(const Vector3& angles);
 
  private:
   RelativeFrame frame_;
