@@ -22,6 +22,7 @@ int Controller::add_task(std::unique_ptr<TaskElement> element, const FilterParam
   if (!element) throw ConfigError("controller: null task element");
   TrajectoryFilter f(element->target_kind(), element->target_dim(), filter);
   needs_center_of_mass_ = needs_center_of_mass_ || element->needs_center_of_mass();
+  any_periodic_targets_ = any_periodic_targets_ || element->target_period() > 0.0;
   const int index = stack_.add_element(std::move(element));
   stack_.set_feedback_limit(index, filter.max_speed);
   filters_.push_back(std::move(f));
@@ -114,6 +115,16 @@ ControllerStatus Controller::update(const Command& command, double dt) {
           filters_[i].reset(values_.segment(t0, n), value_rates_.segment(t0, n));
       }
     }
+    if (active && e.target_period() > 0.0) {
+      // Angles: the commanded target moved by whole periods to within half a period of the
+      // filter's output, so that the filtered target turns the short way round (from 3.1 to
+      // -3.1 rad by 0.08 rad, not through zero).
+      const double period = e.target_period();
+      for (int k = 0; k < n; ++k) {
+        const double from = filters_[i].value()[k];
+        commanded_[t0 + k] = from + std::remainder(commanded_[t0 + k] - from, period);
+      }
+    }
     if (active) filters_[i].update(commanded_.segment(t0, n), dt);
     stack_.targets().segment(t0, n) = filters_[i].value();
     stack_.target_rates().segment(t0, n) = filters_[i].velocity();
@@ -147,6 +158,14 @@ ControllerStatus Controller::update(const Command& command, double dt) {
   previous_values_.swap(values_);
   update_kinematics();
   value_rates_ = (values_ - previous_values_) * (1.0 / dt);
+  if (any_periodic_targets_) {  // angles that wrapped at +-pi between the two cycles
+    for (int i = 0; i < stack_.num_elements(); ++i) {
+      const double period = stack_.element(i).target_period();
+      if (period == 0.0) continue;
+      for (int k = stack_.target_offset(i); k < stack_.target_offset(i) + stack_.element(i).target_dim(); ++k)
+        value_rates_[k] = std::remainder(values_[k] - previous_values_[k], period) * (1.0 / dt);
+    }
+  }
   return status;
 }
 

@@ -6,8 +6,12 @@
 
 namespace wbm {
 
-TaskElement::TaskElement(std::string name, int dim, int target_dim, TargetKind kind)
-    : name_(std::move(name)), dim_(dim), target_dim_(target_dim), kind_(kind) {}
+TaskElement::TaskElement(std::string name, int dim, int target_dim, TargetKind kind, double target_period)
+    : name_(std::move(name)), target_period_(target_period), dim_(dim), target_dim_(target_dim), kind_(kind) {
+  if (!std::isfinite(target_period) || target_period < 0.0)
+    throw ConfigError("task element '" + name_ + "': target period must be finite and >= 0, got " +
+                      std::to_string(target_period));
+}
 
 void TaskElement::set_gain(double gain) {
   if (!std::isfinite(gain) || gain < 0.0)

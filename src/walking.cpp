@@ -98,8 +98,12 @@ std::uint32_t WalkingModule::update(const Controller& c, const ControllerStatus&
     if (stack.element(e).target_kind() != TargetKind::kVector) continue;
     const int t0 = stack.target_offset(e), n = stack.element(e).target_dim();
     const int r0 = stack.row_offset(e);
-    for (int i = 0; i < n && i < stack.element(e).dim(); ++i)
-      if (active[r0 + i]) error = std::max(error, std::abs(command.targets[t0 + i] - values[t0 + i]));
+    const double period = stack.element(e).target_period();  // angles: the short way round
+    for (int i = 0; i < n && i < stack.element(e).dim(); ++i) {
+      if (!active[r0 + i]) continue;
+      const double d = command.targets[t0 + i] - values[t0 + i];
+      error = std::max(error, std::abs(period > 0.0 ? std::remainder(d, period) : d));
+    }
   }
 
   // Stalled: the error has not fallen by 1 % for stall_time. A growing error (a target

@@ -17,6 +17,7 @@
 #include "wbm/controller.hpp"
 #include "wbm/errors.hpp"
 #include "wbm/paper_model.hpp"
+#include "wbm/tasks/attitude_task.hpp"
 #include "wbm/tasks/axis_task.hpp"
 #include "wbm/tasks/com_task.hpp"
 #include "wbm/tasks/joint_task.hpp"
@@ -138,6 +139,68 @@ void converge(const wbm_test::ShippedModel& entry, unsigned seed, int targets) {
     EXPECT_LT(pos, 1e-4) << context;
     EXPECT_LT(ang * 180 / M_PI, 0.1) << context;
   }
+}
+
+// Attitude targets are angles: commanded from a yaw of 3 rad to -3 rad, the tool of the
+// dual-arm robot (a continuous wrist) turns 0.28 rad the short way round, not 5.7 rad back
+// through zero as a filter on the plain numbers moves it.
+TEST(Controller, AttitudeTargetsTurnTheShortWayRound) {
+  const wbm_test::ShippedModel& entry = wbm_test::shipped_model("dual_arm");
+  const Model model = entry.load();
+  Controller c(model);
+  c.add_task(std::make_unique<AttitudeTask>(model, "tool", "left_tool"), {4.0, 0.8, 2});
+  c.reset(entry.start(model));
+  Command cmd = standing_command(entry, model, c);
+  cmd.targets << 0.0, 0.0, 3.0;
+  for (int k = 0; k < 3000; ++k) c.update(cmd, 0.002);
+  ASSERT_NEAR(c.values()[2], 3.0, 1e-3);
+  cmd.targets << 0.0, 0.0, -3.0;
+  double turned = 0.0;  // the tool's rotation summed over the cycles
+  Matrix3 before = AttitudeTask::kardan_rotation(c.values());
+  for (int k = 0; k < 2000; ++k) {
+    ASSERT_EQ(c.update(cmd, 0.002).flags & (kInvalidCommand | kInvalidTarget), 0u);
+    const Matrix3 now = AttitudeTask::kardan_rotation(c.values());
+    turned += Eigen::AngleAxisd(now * before.transpose()).angle();
+    before = now;
+  }
+  EXPECT_NEAR(c.values()[2], -3.0, 1e-3);
+  EXPECT_LT(turned, 0.3) << "rad turned on the way from 3 to -3 rad";
+}
+
+// The value rate of an angle taken across its wrap at +-pi: the frame's yaw jumps from pi
+// to -pi between two cycles, its rate does not. An attitude element switched on right
+// then starts its filter from that rate; before, from 2 pi / dt (3,100 rad/s), which put
+// the filter's stages 780 rad ahead and the tool spun after them.
+TEST(Controller, AnAngleWrappingAtPiKeepsItsRate) {
+  const wbm_test::ShippedModel& entry = wbm_test::shipped_model("dual_arm");
+  const Model model = entry.load();
+  Controller c(model);
+  const int tool = c.add_task(std::make_unique<AttitudeTask>(model, "tool", "left_tool"), {4.0, 0.8, 2});
+  c.add_task(std::make_unique<JointTask>(model, "wrist", std::vector<std::string>{"left_joint7"}), {4.0, 1.0, 2});
+  c.reset(entry.start(model));
+  Command cmd = standing_command(entry, model, c);
+  const int wrist = c.tasks().row_offset(1);
+  cmd.task_active.setConstant(false);
+  cmd.task_active[wrist] = true;
+  cmd.targets[c.tasks().target_offset(1)] = 100.0;  // turn the wrist at its filter's 1 rad/s
+  double yaw = c.values()[2];
+  int wrapped = 0;
+  for (int k = 0; k < 20000 && wrapped == 0; ++k) {
+    c.update(cmd, 0.002);
+    if (std::abs(c.values()[2] - yaw) > M_PI) wrapped = k;  // the yaw jumped by 2 pi
+    yaw = c.values()[2];
+  }
+  ASSERT_GT(wrapped, 0) << "the tool's yaw never wrapped";
+  cmd.task_active.setConstant(true);  // the attitude element on at the wrap: it stops the tool
+  cmd.task_active[wrist] = false;
+  cmd.targets.head<3>() = c.values().head<3>();
+  c.update(cmd, 0.002);
+  EXPECT_LT(c.filter(tool).velocity().norm(), 2.0) << c.filter(tool).velocity().transpose();
+  for (int k = 0; k < 2000; ++k) c.update(cmd, 0.002);
+  EXPECT_LT(c.qdot().norm(), 1e-3);
+  const Eigen::AngleAxisd off(AttitudeTask::kardan_rotation(c.values().head<3>()).transpose() *
+                              AttitudeTask::kardan_rotation(cmd.targets.head<3>()));
+  EXPECT_LT(off.angle(), 0.1) << "rad from where the element was switched on";
 }
 
 /// Runs on every shipped model and, through scripts/check_model.sh, on the user's robot.

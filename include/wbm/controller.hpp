@@ -109,6 +109,7 @@ class Controller {
   Eigen::VectorXd external_;  // external velocities as realised within the limits
   Mask was_active_, was_row_active_;
   bool needs_center_of_mass_ = false;
+  bool any_periodic_targets_ = false;  // an element with a target period (angles)
   Eigen::VectorXd commanded_;  // last valid target per element
 };
 

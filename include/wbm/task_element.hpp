@@ -26,7 +26,8 @@ enum class TargetKind {
 class TaskElement {
  public:
   /// @throws ConfigError if the gain is negative or not finite.
-  TaskElement(std::string name, int dim, int target_dim, TargetKind kind);
+  /// @throws ConfigError if target_period is negative or not finite.
+  TaskElement(std::string name, int dim, int target_dim, TargetKind kind, double target_period = 0.0);
   virtual ~TaskElement() = default;
 
   const std::string& name() const { return name_; }
@@ -35,6 +36,11 @@ class TaskElement {
   /// Size of the target vector (3 for a 2-dof axis: a direction).
   int target_dim() const { return target_dim_; }
   TargetKind target_kind() const { return kind_; }
+  /// Period of every target entry [rad]: 2 pi for angles (AttitudeTask), 0 for none. A
+  /// target and the same target plus whole periods are the same: the controller moves a
+  /// commanded target by whole periods to within half a period of its filter's output
+  /// (the short way round) and takes value rates modulo the period.
+  double target_period() const { return target_period_; }
   /// Error feedback gain [1/s].
   double gain() const { return gain_; }
   /// @throws ConfigError if gain < 0 or not finite.
@@ -61,6 +67,7 @@ class TaskElement {
   friend class TaskStack;  // sets all_rows_active_
   std::string name_;
   bool all_rows_active_ = true;
+  double target_period_ = 0.0;
   int dim_;
   int target_dim_;
   TargetKind kind_;

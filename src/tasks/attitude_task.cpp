@@ -10,7 +10,7 @@ double wrap(double angle) { return std::remainder(angle, 2.0 * M_PI); }
 }  // namespace
 
 AttitudeTask::AttitudeTask(const Model& model, std::string name, const std::string& frame, const std::string& reference)
-    : TaskElement(std::move(name), 3, 3, TargetKind::kVector), frame_(model, frame, reference),
+    : TaskElement(std::move(name), 3, 3, TargetKind::kVector, 2.0 * M_PI), frame_(model, frame, reference),
       J3_(3, model.num_dofs()) {}
 
 Vector3 AttitudeTask::kardan_angles(const Matrix3& R) {
