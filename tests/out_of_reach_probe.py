@@ -25,7 +25,15 @@ runs axis targets no configuration meets instead (152 runs on the shipped robots
 axis alone turned behind, down, up or sideways; the same direction for both grasp axes
 (mirrored) and the view axis with the hands held where they are; and with the hands 0.6 m
 forward, 0.2 m up. Not every one of these comes to rest (docs/solver.md), so --check is
-refused with --axes. Standard library only.
+refused with --axes.
+
+  python3 tests/out_of_reach_probe.py [WBM [OUT_DIR]] --attitude [--check] [--random-seeds ...]
+
+turns both hands' attitude (3 rows each, Kardan angles) by (0, 3, 1), (-2, -2, 2) or
+(3, 0, 0) rad from where they are (21 runs on the shipped robots; CTest
+out_of_reach_probe_attitude): pitches past 90 degrees and through gimbal lock, reached or
+not. With --check it fails above 10 rad/s^2 in the last 1.5 s, as the hand targets.
+Standard library only.
 """
 import argparse
 import csv
@@ -64,6 +72,8 @@ HEADS = {"g1_29": "d435_link", "g1_23": "d435_link", "h1": "d435_rgb_module_link
          "atlas": "head", "dual": None}
 DIRECTIONS = {"behind": (-1, 0, 0), "down": (0, 0, -1), "up": (0, 0, 1), "side": (0, -1, 0)}
 AXIS_CASES = {"view": None, "held": (0, 0, 0), "far": (0.6, 0, 0.2)}
+# --attitude: turns of both hands' Kardan angles [rad].
+ATTITUDE_TURNS = {"pitched": (0, 3, 1), "turned": (-2, -2, 2), "rolled": (3, 0, 0)}
 
 
 def scenario(name, robot, offset, balance):
@@ -109,11 +119,29 @@ def axis_scenario(name, robot, head, hands, direction, balance):
     return text
 
 
-def cases(robots, axes):
-    """(name, scenario text) of every run."""
+def attitude_scenario(name, robot, turn):
+    """Both hands' attitude turned by `turn` (Kardan angles, relative)."""
+    urdf, options, left, right = robot[:4]
+    a, b, c = turn
+    fast = "filter: {bandwidth: 4, max_speed: 0.8}"
+    return (f"name: {name}\nrobot: {{urdf: '{os.path.join(MODELS, urdf)}', {options}}}\n"
+            f"dt: 0.002\nduration: {DURATION}\nrecord_every: 1\nfrozen: [heel_x, heel_y, heel_yaw]\ntasks:\n"
+            f"  - {{name: la, type: attitude, frame: {left}, {fast}}}\n"
+            f"  - {{name: ra, type: attitude, frame: {right}, {fast}}}\n"
+            f"timeline:\n  - {{t: 0.2, activate: [la, ra], relative_targets: {{la: [{a}, {b}, {c}], "
+            f"ra: [{a}, {b}, {c}]}}}}\n")
+
+
+def cases(robots, mode):
+    """(name, scenario text) of every run; mode "hands", "axes" or "attitude"."""
     for robot_id, robot in robots.items():
         feet = (False, True) if robot[4] is not None else (False,)
-        if not axes:
+        if mode == "attitude":
+            for turn_id, turn in ATTITUDE_TURNS.items():
+                name = f"{robot_id}_attitude_{turn_id}"
+                yield name, attitude_scenario(name, robot, turn)
+            continue
+        if mode == "hands":
             for (target_id, offset), balance in itertools.product(TARGETS.items(), feet):
                 name = f"{robot_id}_{target_id}_{'balance' if balance else 'standing'}"
                 yield name, scenario(name, robot, offset, balance)
@@ -167,8 +195,11 @@ def main():
     parser.add_argument("--check", action="store_true", help="exit 1 if a run is still moving")
     parser.add_argument("--random-seeds", help="comma-separated seeds: random variants instead")
     parser.add_argument("--axes", action="store_true", help="axis targets out of reach instead")
+    parser.add_argument("--attitude", action="store_true", help="hand attitudes turned instead")
     parser.add_argument("--keep", action="store_true", help="keep each run's trajectory.csv (removed otherwise)")
     options = parser.parse_args()
+    if options.axes and options.attitude:
+        parser.error("--axes and --attitude: one kind of target per run")
     if options.axes and options.check:
         parser.error("--check with --axes: not every one of those runs comes to rest (docs/solver.md)")
     wbm = options.wbm
@@ -183,7 +214,7 @@ def main():
             parser.error(f"--random-seeds: expected comma-separated whole numbers, got '{options.random_seeds}'")
         robots = random_variants(seeds, out)
     results = []
-    for name, text in cases(robots, options.axes):
+    for name, text in cases(robots, "axes" if options.axes else "attitude" if options.attitude else "hands"):
         path = os.path.join(out, name + ".yaml")
         with open(path, "w", encoding="utf-8") as f:
             f.write(text)
