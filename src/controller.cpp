@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "wbm/errors.hpp"
 
@@ -62,6 +63,9 @@ void Controller::reset(const Eigen::VectorXd& q) {
   commanded_ = values_;
   was_active_.setConstant(stack_.num_elements(), false);
   was_row_active_.setConstant(stack_.num_rows(), false);
+  previous_free_.setConstant(model_.num_dofs(), true);
+  in_transition_ = false;
+  limited_.setZero(model_.num_dofs());
   for (int i = 0; i < stack_.num_elements(); ++i) {
     const int t0 = stack_.target_offset(i), n = stack_.element(i).target_dim();
     filters_[i].reset(values_.segment(t0, n), value_rates_.segment(t0, n));
@@ -90,6 +94,12 @@ ControllerStatus Controller::update(const Command& command, double dt) {
     return status;
   }
   stack_.activation() = command.task_active;
+  // A change of the active rows or of b_C changes the structure of the solution (III, IV.D).
+  // (Byte compares: Eigen's element-wise compare of the masks cost 200 instructions a cycle.)
+  const int n_rows = stack_.num_rows(), n_dofs = model_.num_dofs();
+  bool structure_changed = std::memcmp(command.task_active.data(), was_row_active_.data(), n_rows) != 0 ||
+                           std::memcmp(command.free_dofs.data(), previous_free_.data(), n_dofs) != 0;
+  std::memcpy(previous_free_.data(), command.free_dofs.data(), n_dofs);
   for (int i = 0; i < stack_.num_elements(); ++i) {
     const TaskElement& e = stack_.element(i);
     const int t0 = stack_.target_offset(i), n = e.target_dim();
@@ -150,8 +160,37 @@ ControllerStatus Controller::update(const Command& command, double dt) {
     qdot_.setZero();
     return status;
   }
-  if (external) q_total_ = solver_->output().qdot + external_;
-  status.flags |= integrate(model_, q_, external ? q_total_ : solver_->output().qdot, dt, q_next_);
+  // Where rows or dofs were switched (by the command, or dofs frozen at or released from
+  // their limits), the solution changes its structure and q_dot can jump: a task switched
+  // off while moving takes its rate away at once. The paper limits the change of the null-
+  // space rates (IV.E); here, from such a cycle until q_dot has caught up, the change of
+  // every free dof's rate per cycle is limited the same way, to k vmax dt (k the solver's
+  // nullspace_rate_change_limit; 0 switches both off). Dofs frozen by b_C stop at once.
+  const Eigen::VectorXd* qdot = &solver_->output().qdot;
+  structure_changed = structure_changed || solver_->output().frozen_set_changed;
+  const double rate_limit = solver_parameters_.nullspace_rate_change_limit;
+  if (rate_limit > 0.0 && (structure_changed || in_transition_)) {
+    in_transition_ = false;
+    const Eigen::VectorXd& vmax = model_.max_speeds();
+    for (int i = 0; i < model_.num_dofs(); ++i) {
+      double v = (*qdot)[i];
+      if (command.free_dofs[i]) {
+        const double step = rate_limit * vmax[i] * dt;
+        // The rate realised last cycle (without external velocities), within the speed
+        // limit: over a tiny dt its rounding can put it an ulp / dt beyond.
+        const double realised = qdot_[i] - (external ? external_[i] : 0.0);
+        const double from = solver_parameters_.limit_speeds ? std::clamp(realised, -vmax[i], vmax[i]) : realised;
+        if (std::abs(v - from) > step) {
+          v = from + std::copysign(step, v - from);
+          in_transition_ = true;
+        }
+      }
+      limited_[i] = v;
+    }
+    qdot = &limited_;
+  }
+  if (external) q_total_ = *qdot + external_;
+  status.flags |= integrate(model_, q_, external ? q_total_ : *qdot, dt, q_next_);
   qdot_ = (q_next_ - q_) * (1.0 / dt);
   // Swaps (of the buffers, no copies): q_next_ and values_ are overwritten whole next time.
   q_.swap(q_next_);

@@ -507,6 +507,7 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
     }
     any_frozen_at_limit_ = any_frozen;
   }
+  out_.frozen_set_changed = frozen_set_changed;
 
   const Eigen::VectorXd& vmax = model_.max_speeds();
   if (parameters_.limit_speeds) {

@@ -5,7 +5,7 @@
 
 Writes 52 scenarios (seven shipped robots; both hands moved by 0.6 m forward and 0.2 m
 up, 0.8 m up and 0.1 m forward, 0.7 m outwards, or 0.6 m across to the other side; with
-and without balance; 10 s at 2 ms, every cycle recorded), runs them with `wbm run`, and
+and without balance; 14 s at 2 ms, every cycle recorded), runs them with `wbm run`, and
 prints for each the largest joint acceleration in the last 1.5 s (second differences of
 the recorded configurations; each trajectory.csv is removed then, unless --keep) and the
 elements' final errors, then how many runs exceed 10,
@@ -63,7 +63,7 @@ ROBOTS = {
     "dual": ("dual_arm/dual_arm.urdf", "fixed_base: true", "left_tool", "right_tool", None, None),
 }
 # Offsets of the left hand; the right hand's mirror y (across: to the other side).
-DURATION = 10  # [s] of each run; the last 1.5 s are looked at
+DURATION = 14  # [s] of each run; the last 1.5 s are looked at
 TARGETS = {"fwd": (0.6, 0.0, 0.2), "up": (0.1, 0.0, 0.8), "side": (0.0, 0.7, 0.0), "cross": (0.3, -0.6, 0.1)}
 # --axes: each robot's head frame (its z-axis is the view axis; none on the dual-arm robot),
 # the directions for the view axis and the left grasp axis (the right one's mirrors y), and

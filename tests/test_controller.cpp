@@ -203,6 +203,44 @@ TEST(Controller, AnAngleWrappingAtPiKeepsItsRate) {
   EXPECT_LT(off.angle(), 0.1) << "rad from where the element was switched on";
 }
 
+// An element switched off while it moves: its rate leaves q_dot at once in the solution,
+// and without a limit the arm stopped within a cycle (paper model, 1.1 rad/s, 1,100
+// rad/s^2). From a change of the active rows (or of the free dofs) until q_dot has caught
+// up, every dof's rate changes by at most k vmax dt per cycle (k = 20 1/s, as the null-space
+// jerk limit), so the arm comes to rest smoothly.
+TEST(Controller, SwitchingAMovingElementOffChangesQdotAtMostByTheRateLimit) {
+  const Model model = make_paper_model();
+  for (const double k : {20.0, 0.0}) {
+    SolverParameters parameters;
+    parameters.nullspace_rate_change_limit = k;
+    Controller c(model, parameters);
+    c.add_task(std::make_unique<PositionTask>(model, "r_hand", "r_hand_ref"), {4.0, 0.4, 2});
+    c.reset(model.home());
+    Command cmd = c.make_command();
+    cmd.free_dofs.head(3).setConstant(false);
+    cmd.targets.head<3>() += Vector3(0.2, -0.1, 0.2);
+    for (int i = 0; i < 600; ++i) c.update(cmd, 0.001);
+    ASSERT_GT(c.qdot().norm(), 0.5);  // moving
+    cmd.task_active.setConstant(false);
+    double largest_change = 0.0, largest_allowed_excess = -1.0;
+    for (int i = 0; i < 2000; ++i) {
+      const VectorXd before = c.qdot();
+      c.update(cmd, 0.001);
+      for (int d = 0; d < model.num_dofs(); ++d) {
+        const double change = std::abs(c.qdot()[d] - before[d]);
+        largest_change = std::max(largest_change, change);
+        largest_allowed_excess = std::max(largest_allowed_excess, change - 20.0 * model.dof(d).max_speed * 0.001);
+      }
+    }
+    if (k > 0.0) {
+      EXPECT_LE(largest_allowed_excess, 1e-12) << "q_dot changed by up to " << largest_change << " in a cycle";
+      EXPECT_LT(c.qdot().norm(), 0.05);  // coming to rest
+    } else {
+      EXPECT_GT(largest_allowed_excess, 0.5) << "without the limit the arm stops at once";
+    }
+  }
+}
+
 /// Runs on every shipped model and, through scripts/check_model.sh, on the user's robot.
 class EveryModel : public testing::TestWithParam<wbm_test::ShippedModel> {};
 

@@ -74,6 +74,10 @@ class Controller {
   /// this cycle and the solve repeated (at most WholeBodySolver::kMaxFreezeRounds times),
   /// so that the other dofs take over its share instead of the task stalling against the
   /// clamp (IV.E clamps; this keeps the clamp from fighting the task).
+  /// Where active rows or b_C change, or dofs are frozen at or released from their limits,
+  /// each free dof's rate then changes by at most k v_max dt per cycle (k the solver's
+  /// nullspace_rate_change_limit) until q_dot has caught up with the solver's: an element
+  /// switched off while moving slows down instead of stopping within a cycle.
   ControllerStatus update(const Command& command, double dt);
 
   const Model& model() const { return model_; }
@@ -110,6 +114,9 @@ class Controller {
   Mask was_active_, was_row_active_;
   bool needs_center_of_mass_ = false;
   bool any_periodic_targets_ = false;  // an element with a target period (angles)
+  Mask previous_free_;                 // last cycle's b_C
+  bool in_transition_ = false;         // q_dot still catching up after a change of rows or dofs
+  Eigen::VectorXd limited_;            // q_dot with its change per cycle limited (transitions)
   Eigen::VectorXd commanded_;  // last valid target per element
 };
 

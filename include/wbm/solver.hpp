@@ -29,7 +29,8 @@ struct SolverParameters {
   /// a dof may change by at most this many times its speed limit per second [1/s]; 0 turns
   /// it off. When exceeded, the whole null-space vector is scaled down (direction kept).
   /// Not applied in a solve where the set of dofs frozen at their limits changes (the
-  /// task/null-space split changes there; docs/solver.md).
+  /// task/null-space split changes there; docs/solver.md). The Controller uses the same
+  /// factor to limit the change of the whole q_dot after such structural changes.
   double nullspace_rate_change_limit = 20.0;
   /// Scale velocities so that no dof exceeds its speed limit (IV.E).
   bool limit_speeds = true;
@@ -67,6 +68,7 @@ struct SolverOutput {
   double damping = 0.0;             ///< lambda used.
   double nullspace_scale = 1.0;     ///< Factor applied to the null-space part.
   double task_scale = 1.0;          ///< Factor applied to the task part.
+  bool frozen_set_changed = false;  ///< The dofs frozen at their limits differ from the last solve's.
 };
 
 /// Solves eq. (5) with W^-1 = diag(r_i^2) (r_i the work range of dof i: the minimum-norm
