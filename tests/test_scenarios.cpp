@@ -283,6 +283,21 @@ TEST(Walking, StepWidthsMustIncludeTheFootSpacing) {
   }
 }
 
+// An attitude target a whole turn from the hand's angles is where the hand is: the walking
+// module's distance to it is the wrapped difference (0), not 2 pi, which, not falling, read
+// as a stalled task and started a walk.
+TEST(Walking, AnAttitudeTargetAWholeTurnAwayIsReachedWithoutWalking) {
+  const auto run = run_scenario(parse_scenario(
+      "name: w\nrobot: {builtin: paper}\nduration: 3\nfrozen: [heel_x, heel_y, heel_yaw]\n"
+      "walking: {enabled: true}\n"
+      "tasks: [{name: a, type: attitude, frame: l_hand_ref}]\n"
+      "timeline: [{t: 0.1, activate: [a], relative_targets: {a: [0, 0, 6.283185307179586]}}]\n",
+      "w.yaml", "."));
+  EXPECT_EQ(walks(*run), 0);
+  EXPECT_TRUE(run->footsteps.empty());
+  EXPECT_LT(run->error.back()[run->element("a")], 1e-6);
+}
+
 TEST(Walking, RobotsWithNarrowAndWideFeetFinishTheirWalk) {
   struct Robot {
     std::string id, hand, left_foot, right_foot;
