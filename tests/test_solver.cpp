@@ -929,6 +929,19 @@ TEST(Controller, ConfigurationErrorsThrow) {
   PositionTask task(model, "x", "l_hand_ref");
   EXPECT_THROW(task.set_gain(-1.0), ConfigError);
   EXPECT_THROW(task.set_gain(std::nan("")), ConfigError);
+  // A target period (angles) must be finite and >= 0; attitude targets have 2 pi.
+  struct Periodic : TaskElement {
+    explicit Periodic(double period) : TaskElement("p", 1, 1, TargetKind::kVector, period) {}
+    void value(const Model&, const Data&, Eigen::Ref<Eigen::VectorXd>) override {}
+    void evaluate(const Model&, const Data&, const Eigen::Ref<const Eigen::VectorXd>&,
+                  const Eigen::Ref<const Eigen::VectorXd>&, Eigen::Ref<Eigen::MatrixXd>, Eigen::Ref<Eigen::VectorXd>,
+                  Eigen::Ref<Eigen::VectorXd>) override {}
+  };
+  EXPECT_THROW(Periodic(-1.0), ConfigError);
+  EXPECT_THROW(Periodic(std::numeric_limits<double>::infinity()), ConfigError);
+  EXPECT_EQ(Periodic(0.5).target_period(), 0.5);
+  EXPECT_EQ(task.target_period(), 0.0);
+  EXPECT_EQ(AttitudeTask(model, "a", "l_hand_ref").target_period(), 2 * M_PI);
   SolverParameters bad;
   bad.max_damping = -1.0;
   EXPECT_THROW(Controller(model, bad), ConfigError);
