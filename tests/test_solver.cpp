@@ -937,8 +937,8 @@ TEST(Controller, ConfigurationErrorsThrow) {
                   const Eigen::Ref<const Eigen::VectorXd>&, Eigen::Ref<Eigen::MatrixXd>, Eigen::Ref<Eigen::VectorXd>,
                   Eigen::Ref<Eigen::VectorXd>) override {}
   };
-  EXPECT_THROW(Periodic(-1.0), ConfigError);
-  EXPECT_THROW(Periodic(std::numeric_limits<double>::infinity()), ConfigError);
+  EXPECT_THROW(Periodic{-1.0}, ConfigError);
+  EXPECT_THROW(Periodic{std::numeric_limits<double>::infinity()}, ConfigError);  // braces: not a declaration
   EXPECT_EQ(Periodic(0.5).target_period(), 0.5);
   EXPECT_EQ(task.target_period(), 0.0);
   EXPECT_EQ(AttitudeTask(model, "a", "l_hand_ref").target_period(), 2 * M_PI);
