@@ -99,8 +99,10 @@ double distance(const std::string& type, const Eigen::Ref<const Eigen::VectorXd>
                                     AttitudeTask::kardan_rotation(b.head<3>()));
     return between.angle();
   }
+  // Attitude: of the angles, with the target's pitch within +-90 degrees (the same rotation).
+  const Vector3 b_attitude = type == "attitude" ? AttitudeTask::canonical_angles(b.head<3>()) : Vector3::Zero();
   auto difference = [&](int i) {
-    return type == "attitude" ? std::remainder(a[i] - b[i], 2.0 * M_PI) : a[i] - b[i];
+    return type == "attitude" ? std::remainder(a[i] - b_attitude[i], 2.0 * M_PI) : a[i] - b[i];
   };
   double max = 0.0;
   for (int i = 0; i < a.size(); ++i) {

@@ -452,6 +452,23 @@ TEST(Scenarios, AttitudeTargetPitchedPastNinetyDegreesIsReached) {
   }
   const auto [acceleration, dof] = largest_acceleration_after(*run, 6.5);
   EXPECT_LT(acceleration, 10.0) << dof << " still accelerates at " << acceleration << " rad/s^2 in the last 1.5 s";
+  // The pitch row alone, and with the roll row: the angle differences, to the target with
+  // its pitch written within 90 degrees (pi - 3 rad and roll + pi). Against the pitch of 3
+  // rad itself the tool pitched to gimbal lock and on, 270 and 400-900 rad/s^2 at 10 s.
+  for (const std::string rows : {"[a.1]", "[a.0, a.1]"}) {
+    Scenario partial = parse_scenario(
+        "name: pitch\nrobot: {urdf: '" + wbm_test::shipped_model("dual_arm").path +
+            "', fixed_base: true}\ndt: 0.002\nduration: 8\nrecord_every: 1\n"
+            "tasks: [{name: a, type: attitude, frame: left_tool, filter: {bandwidth: 4, max_speed: 0.8}}]\n"
+            "timeline: [{t: 0.2, activate: " + rows + ", relative_targets: {a: [0, 3, 0]}}]\n",
+        "pitch.yaml", ".");
+    const auto pitched = run_scenario(partial);
+    EXPECT_LT(pitched->error.back()[pitched->element("a")], 1e-4) << rows;
+    // Over the whole run: where the filtered target passes 90 degrees, the canonical pitch
+    // turns back, and so does its feed-forward rate (without that, 270 rad/s^2 there).
+    const auto [partial_acceleration, partial_dof] = largest_acceleration_after(*pitched, 0.0);
+    EXPECT_LT(partial_acceleration, 10.0) << rows << ": " << partial_dof;
+  }
 }
 
 /// The report's data (the JSON written into the page's template).

@@ -511,7 +511,8 @@ TEST(AxisTask, DegenerateCasesAreDefinedAndContinuous) {
 // Attitude error with all rows active: the rotation to the target on Kardan rates, the same
 // for the two angle triples of one rotation ((a, b, c) and (a + pi, pi - b, c + pi), also
 // with |b| > 90 degrees), and the differences of the angles to first order; with one row
-// active (through a TaskStack), that angle's wrapped difference exactly.
+// active (through a TaskStack), that angle's wrapped difference to the target written with
+// its pitch within 90 degrees (canonical_angles: the same rotation) exactly.
 TEST(AttitudeTask, ErrorIsTheRotationToTheTargetWithAllRowsAndTheAngleWithOne) {
   const Model model = make_paper_model();
   Data data(model);
@@ -533,6 +534,9 @@ TEST(AttitudeTask, ErrorIsTheRotationToTheTargetWithAllRowsAndTheAngleWithOne) {
     const Vector3 rate(angle(rng), angle(rng), angle(rng));
     const Vector3 twin_rate(rate.x(), -rate.y(), rate.z());
     ASSERT_LT((AttitudeTask::kardan_rotation(t) - AttitudeTask::kardan_rotation(twin)).norm(), 1e-12);
+    const Vector3 canonical = AttitudeTask::canonical_angles(t);
+    ASSERT_LT((AttitudeTask::kardan_rotation(canonical) - AttitudeTask::kardan_rotation(t)).norm(), 1e-12);
+    ASSERT_LE(std::abs(std::remainder(canonical.y(), 2 * M_PI)), M_PI / 2);
     task.evaluate(model, data, t, rate, J, e, r);
     task.evaluate(model, data, twin, twin_rate, J_twin, e_twin, r_twin);
     ASSERT_LT((e - e_twin).norm(), 1e-9 * (1 + e.norm())) << "case " << c << " target " << t.transpose();
@@ -550,7 +554,7 @@ TEST(AttitudeTask, ErrorIsTheRotationToTheTargetWithAllRowsAndTheAngleWithOne) {
       stack.targets() = t;
       stack.target_rates().setZero();
       ASSERT_EQ(stack.assemble(model, data), 1);
-      ASSERT_NEAR(stack.errors()[row], std::remainder(t[row] - angles[row], 2 * M_PI), 1e-12) << "row " << row;
+      ASSERT_NEAR(stack.errors()[row], std::remainder(canonical[row] - angles[row], 2 * M_PI), 1e-12) << "row " << row;
     }
   }
 }

@@ -28,6 +28,12 @@ Matrix3 AttitudeTask::kardan_rotation(const Vector3& angles) {
       .toRotationMatrix();
 }
 
+Vector3 AttitudeTask::canonical_angles(const Vector3& angles) {
+  const double b = wrap(angles.y());
+  if (std::abs(b) <= 0.5 * M_PI) return angles;
+  return {angles.x() + M_PI, std::copysign(M_PI, b) - b, angles.z() + M_PI};
+}
+
 Matrix3 AttitudeTask::kardan_rate_matrix(const Vector3& angles) {
   const double sa = std::sin(angles.x()), ca = std::cos(angles.x());
   const double sb = std::sin(angles.y()), cb = std::cos(angles.y());
@@ -55,8 +61,10 @@ void AttitudeTask::evaluate(const Model& model, const Data& data, const Eigen::R
   frame_.rotational_jacobian(model, data, J3_);
   for (int c = 0; c < J.cols(); ++c) J.col(c) = E_inv * Vector3(J3_.col(c));
   if (!all_rows_active()) {
-    for (int i = 0; i < 3; ++i) error[i] = wrap(target[i] - angles[i]);
+    const Vector3 t = canonical_angles(target);
+    for (int i = 0; i < 3; ++i) error[i] = wrap(t[i] - angles[i]);
     rate = target_rate;
+    if (t.y() != target[1]) rate[1] = -target_rate[1];  // the canonical pitch moves the other way
     return;
   }
   const Vector3 t = target;

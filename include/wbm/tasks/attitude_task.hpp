@@ -12,7 +12,9 @@ namespace wbm {
 /// magnitude so the rows stay finite.
 ///
 /// Error: with some rows inactive, each active angle's difference to its target, wrapped
-/// to (-pi, pi]. With all three active, the rotation from the frame to the target,
+/// to (-pi, pi], the target first written with its pitch within +-90 deg (canonical_angles:
+/// a pitch target past 90 deg alone is reached as the pitch of the same rotation, not
+/// chased past gimbal lock for ever). With all three active, the rotation from the frame to the target,
 /// E^-1 log(R_target R^T) (angle times axis, mapped on Kardan rates), and the feed-forward
 /// rate E^-1 E_target d(target)/dt: both continuous across gimbal lock, where the angles of
 /// the frame jump by pi, and for targets with |b| > 90 deg, which no angles of the frame
@@ -30,6 +32,9 @@ class AttitudeTask : public TaskElement {
   /// Kardan angles (a, b, c) of R = Rx(a) Ry(b) Rz(c).
   static Vector3 kardan_angles(const Matrix3& R);
   static Matrix3 kardan_rotation(const Vector3& angles);
+  /// The Kardan angles of the same rotation with the pitch b within [-pi/2, pi/2]:
+  /// (a + pi, +-pi - b, c + pi) where |b| (wrapped to (-pi, pi]) exceeds pi/2, else unchanged.
+  static Vector3 canonical_angles(const Vector3& angles);
   /// E(a, b): Kardan rates to angular velocity, w = E d(a,b,c)/dt.
   static Matrix3 kardan_rate_matrix(const Vector3& angles);
 
