@@ -18,9 +18,10 @@ namespace wbm {
 /// E^-1 log(R_target R^T) (angle times axis, mapped on Kardan rates), and the feed-forward
 /// rate E^-1 E_target d(target)/dt: both continuous across gimbal lock, where the angles of
 /// the frame jump by pi, and for targets with |b| > 90 deg, which no angles of the frame
-/// reach (the same rotation as (a + pi, pi - b, c + pi)). The two agree to first order, and
-/// exactly for one active row. Differences in angles alone made a frame pitched past 90
-/// degrees chatter at every cycle (docs/solver.md).
+/// reach (the same rotation as (a + pi, pi - b, c + pi)). The two agree to first order (for
+/// one active row and a pitch target within 90 deg, the rotation error with the other
+/// angles at their current values is exactly the angle difference). Differences in angles
+/// alone made a frame pitched past 90 degrees chatter at every cycle (docs/solver.md).
 class AttitudeTask : public TaskElement {
  public:
   /// @throws ModelError if a frame is unknown.
