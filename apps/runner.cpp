@@ -423,7 +423,7 @@ json summarize(const ScenarioRun& run) {
       {kDamped, "damped"}, {kOverdetermined, "overdetermined"}, {kTaskSpeedLimited, "task_speed_limited"},
       {kNullSpaceSpeedScaled, "nullspace_speed_scaled"}, {kNullSpaceJerkLimited, "nullspace_jerk_limited"},
       {kNoActiveRows, "no_active_rows"}, {kAllDofsFrozen, "all_dofs_frozen"}, {kInvalidInput, "invalid_input"},
-      {kJointLimitClamped, "joint_limit_clamped"}, {kDofAtLimitFrozen, "dof_at_limit_frozen"},
+      {kJointLimitClamped, "joint_limit_clamped"}, {kDofAtLimitFrozen, "dof_at_limit_frozen"}, {kDofBraked, "dof_braked"},
       {kDampingRaised, "damping_raised"}, {kInvalidCommand, "invalid_command"}, {kInvalidTarget, "invalid_target"}};
   json counts = json::object();
   for (const auto& [flag, name] : kFlags) {

@@ -6,6 +6,7 @@
 
 #include "wbm/errors.hpp"
 
+#include "braking.hpp"
 #include "dot_kernels.hpp"
 
 namespace wbm {
@@ -183,6 +184,11 @@ ControllerStatus Controller::update(const Command& command, double dt) {
         if (std::abs(v - from) > step) {
           v = from + std::copysign(step, v - from);
           in_transition_ = true;
+          // Not faster towards a limit than the solver's braking allows (where dt varies, a
+          // rate within it last cycle may not be now): better a harder brake than the clamp.
+          v = internal::braked_rate(
+              v, internal::distance_ahead(v, q_[i], model_.lower_limits()[i], model_.upper_limits()[i]),
+              rate_limit * vmax[i], dt);
         }
       }
       limited_[i] = v;

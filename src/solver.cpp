@@ -5,6 +5,7 @@
 
 #include "wbm/errors.hpp"
 
+#include "braking.hpp"
 #include "dot_kernels.hpp"
 #include "unit_row_elimination.hpp"
 
@@ -574,6 +575,40 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
   }
   out_.qdot_null *= out_.nullspace_scale;
   out_.qdot = out_.qdot_task + out_.qdot_null;
+  if (q != nullptr && parameters_.nullspace_rate_change_limit > 0.0) {
+    // The paper clamps a joint at its limit (IV.E), so a dof that reaches it at speed stops
+    // within a cycle. Here the rate is clamped instead, before the limit: a dof moving
+    // towards a limit d away faster than sqrt(k v_max d) (from which it stops there at the
+    // deceleration k v_max / 2) or than d / dt (which lands it on the limit) is slowed to
+    // that rate; the other dofs are left as solved, as the paper's clamp leaves them, and
+    // the task error this makes is fed back next cycle. The dof then reaches its limit at
+    // a rate falling by at most k v_max dt per cycle (the Controller's bound across the
+    // freeze that follows there; docs/solver.md). The common case, no dof that close, is
+    // one pass without a division or square root.
+    const double k = parameters_.nullspace_rate_change_limit;
+    const double* lower = model_.lower_limits().data();
+    const double* upper = model_.upper_limits().data();
+    const double* position = q->data();
+    const double* qdot = out_.qdot.data();
+    const double* speed = vmax.data();
+    bool close = false;
+    for (int i = 0; i < n; ++i) {
+      const double v = qdot[i];
+      const double d = internal::distance_ahead(v, position[i], lower[i], upper[i]);
+      close |= (v * v > k * speed[i] * d) | (std::abs(v) * dt > d);
+    }
+    for (int i = 0; close && i < n; ++i) {
+      const double v = qdot[i];
+      const double rate = internal::braked_rate(v, internal::distance_ahead(v, position[i], lower[i], upper[i]),
+                                                k * speed[i], dt);
+      if (!(std::abs(rate) < std::abs(v))) continue;  // not braked (or NaN, caught below)
+      const double f = rate / v;
+      out_.qdot_task[i] *= f;
+      out_.qdot_null[i] *= f;
+      out_.qdot[i] = rate;
+      status.flags |= kDofBraked;
+    }
+  }
   if (!internal::all_finite(out_.qdot.data(), n)) {
     out_.qdot.setZero();
     out_.qdot_task.setZero();
@@ -637,7 +672,10 @@ std::uint32_t integrate(const Model& model, const Eigen::Ref<const Eigen::Vector
   for (int i = 0; i < q.size(); ++i) {
     const double x = q[i] + qdot[i] * dt;
     const double clamped = std::clamp(x, model.lower_limits()[i], model.upper_limits()[i]);
-    if (clamped != x) flags |= kJointLimitClamped;
+    // A step that lands on the limit (a braked dof, solve()) may round past it by an ulp;
+    // put back there, it is not a clamp.
+    if (clamped != x && std::abs(x - clamped) > 4.0 * std::numeric_limits<double>::epsilon() * (1.0 + std::abs(clamped)))
+      flags |= kJointLimitClamped;
     q_next[i] = clamped;
   }
   return flags;

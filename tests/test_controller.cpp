@@ -241,6 +241,45 @@ TEST(Controller, SwitchingAMovingElementOffChangesQdotAtMostByTheRateLimit) {
   }
 }
 
+// A dof driven into its position limit: the paper clamps it there (IV.E), so it stopped
+// within a cycle (the paper model's elbow at 2 rad/s: 2,000 rad/s^2). It is braked before
+// the limit now (kDofBraked) and lands on it: its rate changes by at most k v_max dt per
+// cycle and it is never clamped. With k = 0 (braking off) it still stops at once.
+TEST(Controller, ADofDrivenIntoItsLimitIsBrakedAndLandsOnIt) {
+  const Model model = make_paper_model();
+  const int elbow = model.dof_index("r_elbow");
+  const double vmax = model.dof(elbow).max_speed, dt = 0.001;
+  for (const double k : {20.0, 0.0}) {
+    SolverParameters parameters;
+    parameters.nullspace_rate_change_limit = k;
+    Controller c(model, parameters);
+    c.add_task(std::make_unique<JointTask>(model, "elbow", std::vector<std::string>{"r_elbow"}), {8.0, 2.0, 2});
+    c.reset(model.home());
+    Command cmd = c.make_command();
+    cmd.targets[0] = 1.0;  // beyond the upper limit, 0
+    double largest_change = 0.0, fastest = 0.0;
+    bool clamped = false, braked = false;
+    for (int i = 0; i < 3000; ++i) {
+      const double before = c.qdot()[elbow];
+      const ControllerStatus status = c.update(cmd, dt);
+      largest_change = std::max(largest_change, std::abs(c.qdot()[elbow] - before));
+      fastest = std::max(fastest, c.qdot()[elbow]);
+      clamped = clamped || status.has(kJointLimitClamped);
+      braked = braked || status.has(kDofBraked);
+    }
+    EXPECT_EQ(c.q()[elbow], model.dof(elbow).upper) << "k = " << k;
+    ASSERT_GT(fastest, 1.5) << "it should run into the limit at speed";
+    if (k > 0.0) {
+      EXPECT_LE(largest_change, k * vmax * dt * (1 + 1e-9)) << "the rate changed by up to " << largest_change;
+      EXPECT_FALSE(clamped);
+      EXPECT_TRUE(braked);
+    } else {
+      EXPECT_GT(largest_change, 1.5) << "without braking the clamp stops it at once";
+      EXPECT_TRUE(clamped);
+    }
+  }
+}
+
 /// Runs on every shipped model and, through scripts/check_model.sh, on the user's robot.
 class EveryModel : public testing::TestWithParam<wbm_test::ShippedModel> {};
 

@@ -301,7 +301,14 @@ void random_controller_run(const wbm_test::ShippedModel& entry, unsigned seed, i
       ASSERT_LE(std::abs(c.qdot()[i]), model.dof(i).max_speed * (1 + 1e-9) + rounding)
           << model.dof(i).name << " cycle " << k << " dt " << dt;
       if (!cmd.free_dofs[i]) { ASSERT_EQ(q[i], q_before[i]) << "frozen " << model.dof(i).name << " cycle " << k; }
+      // Towards a limit d away, no faster than stops there at k v_max / 2 (k = 20/s): the
+      // dof is braked, not stopped by the clamp.
+      const double v = c.qdot()[i];
+      const double d = v > 0.0 ? model.dof(i).upper - q_before[i] : q_before[i] - model.dof(i).lower;
+      ASSERT_LE(std::abs(v), std::sqrt(20.0 * model.dof(i).max_speed * std::max(d, 0.0)) * (1 + 1e-9) + rounding)
+          << model.dof(i).name << " cycle " << k << " dt " << dt << " rate " << v << " limit " << d << " away";
     }
+    ASSERT_FALSE(st.has(kJointLimitClamped)) << "cycle " << k << " dt " << dt;
     if (!st.ok()) { ASSERT_EQ(q, q_before); }
   }
 }

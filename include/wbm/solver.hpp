@@ -50,6 +50,7 @@ enum SolverFlag : std::uint32_t {
   kJointLimitClamped = 1u << 8,     ///< A joint was clamped at its limit (integrate()).
   kDofAtLimitFrozen = 1u << 9,      ///< A dof at its limit was frozen for the cycle (Controller).
   kDampingRaised = 1u << 10,        ///< Damped more than sigma_min alone gives: q_dot overshot near a singularity.
+  kDofBraked = 1u << 11,            ///< A dof nearing a position limit was slowed to a rate that stops it there (Controller).
 };
 
 struct SolverStatus {
@@ -110,7 +111,10 @@ class WholeBodySolver {
   /// @param q optional current configuration (nq): a dof at a position limit that the
   ///   solution would drive further out is then frozen for this solve and the solve repeated
   ///   (at most kMaxFreezeRounds times; kDofAtLimitFrozen), so that the other dofs take over
-  ///   its share instead of the task stalling against the clamp.
+  ///   its share instead of the task stalling against the clamp. With
+  ///   nullspace_rate_change_limit k > 0, a dof moving towards a limit d away faster than
+  ///   sqrt(k v_max d) or d / dt is slowed to that rate (both parts scaled; kDofBraked): it
+  ///   reaches the limit decelerating by at most k v_max instead of stopping there at once.
   /// Near a singularity the damping is raised (kDampingRaised) after q_dot turned back
   /// between two solves under an unchanged command, in proportion to |x_dot| against its
   /// value then, until a solve is undamped again (docs/solver.md).
@@ -205,7 +209,8 @@ class WholeBodySolver {
 };
 
 /// q_next = q + q_dot dt, clamped to the position limits (IV.E); continuous joints are
-/// not clamped. Sets kJointLimitClamped in the returned flags when a joint was clamped.
+/// not clamped. Sets kJointLimitClamped in the returned flags when a joint was clamped
+/// (by more than rounding: a step that lands on a limit may round past it by an ulp).
 std::uint32_t integrate(const Model& model, const Eigen::Ref<const Eigen::VectorXd>& q,
                         const Eigen::Ref<const Eigen::VectorXd>& qdot, double dt, Eigen::Ref<Eigen::VectorXd> q_next);
 
