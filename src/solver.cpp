@@ -380,11 +380,20 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
       y_.head(m) = xdot;  // what reduce() gives too, but inline (20 ns on the paper model's solve)
     }
     u_.head(mk) = u_rhs_.head(mk);
+    const double task_rhs2 = y_.head(mk).squaredNorm();
     double* const rhs[3] = {y_.data(), u_.data(), p > 0 ? z_.data() : v_.data()};
     solve_in_place<3>(mk, rhs);
     if (p > 0) elimination.expand(v_.data(), z_.data(), v_.data(), 0.0);
     // |A^-1 v| <= 1 / lambda_min, with equality for the converged eigenvector.
     lambda_min = 1.0 / normalize_iterate(m);
+    // The task solve bounds it as well: |A^-1 b| <= |b| / lambda_min for every b, so
+    // lambda_min <= |b| / |A^-1 b| (for the system reduced by joint rows too: its smallest
+    // eigenvalue is at least A's). Inverse iteration warm-started from the last cycle can
+    // lag behind where the free dofs change (a dof frozen at its limit): an undamped solve of
+    // a nearly singular A then drove a dof at its speed limit for a cycle (H1, hands out of
+    // reach: 10,000 rad/s^2). No division in the common case.
+    const double task_solution2 = y_.head(mk).squaredNorm();
+    if (task_rhs2 < lambda_min * lambda_min * task_solution2) lambda_min = std::sqrt(task_rhs2 / task_solution2);
   }
   last_estimate_ = lambda_min;
   out_.min_singular_value = std::sqrt(std::max(lambda_min, 0.0));

@@ -566,6 +566,42 @@ TEST(AttitudeTask, ErrorIsTheRotationToTheTargetWithAllRowsAndTheAngleWithOne) {
   }
 }
 
+// Inverse iteration continues from the last cycle's vector, one step per cycle away from
+// the threshold. Where the rows turn (here at once) so that A's weak direction is the old
+// vector's orthogonal, that step overestimates sigma_min: A was solved undamped, and a
+// command along the weak direction gave q_dot of thousands of rad/s (H1 hands crossed out
+// of reach: a dof at its speed limit for a cycle). The task solve itself bounds sigma_min
+// (solver.cpp) and damps it.
+TEST(Solver, AnEstimateThatMissedTheWeakDirectionIsCaughtByTheTaskSolve) {
+  const Model model = make_paper_model();
+  const int n = model.num_dofs();
+  const int d[3] = {model.dof_index("l_shoulder_pitch"), model.dof_index("l_shoulder_roll"),
+                    model.dof_index("l_shoulder_yaw")};
+  SolverParameters p;
+  p.limit_speeds = false;
+  p.nullspace_rate_change_limit = 0.0;
+  WholeBodySolver solver(model, 2, p);
+  const Mask free = Mask::Constant(n, true);
+  // Rows over three dofs in range-normalised units (J W^-1/2 = rows below).
+  auto jacobian = [&](const Eigen::Matrix<double, 2, 3>& rows) {
+    MatrixXd J = MatrixXd::Zero(2, n);
+    for (int r = 0; r < 2; ++r)
+      for (int k = 0; k < 3; ++k) J(r, d[k]) = rows(r, k) / model.dof(d[k]).work_range;
+    return J;
+  };
+  Eigen::Matrix<double, 2, 3> well, weak;
+  well << 1, 1, 0, -1, 0, 1;    // A = [2 -1; -1 2]: smallest eigenvalue 1 along (1, 1)
+  weak << 1, 1, 0, 1, 1, 0.01;  // A = [2 2; 2 2.0001]: 5e-5 along about (1, -1)
+  const VectorXd zero = VectorXd::Zero(n);
+  for (int k = 0; k < 20; ++k) ASSERT_FALSE(solver.solve(jacobian(well), Eigen::Vector2d(0.1, 0.1), zero, free, 0.001).has(kDamped));
+  const Eigen::Vector2d xdot(0.1, -0.1);
+  const SolverStatus st = solver.solve(jacobian(weak), xdot, zero, free, 0.001);
+  EXPECT_TRUE(st.has(kDamped)) << "sigma_min estimate " << solver.output().min_singular_value;
+  double max_range = 0.0;
+  for (int i = 0; i < n; ++i) max_range = std::max(max_range, model.dof(i).work_range);
+  EXPECT_LT(solver.output().qdot.norm(), xdot.norm() * max_range / (2 * p.max_damping));
+}
+
 TEST(Solver, BoundedAndContinuousThroughASingularity) {
   // Stretch the left arm through elbow = 0 (its upper limit, the singular configuration)
   // with the hand commanded 0.3 m beyond reach: q_dot stays bounded and changes

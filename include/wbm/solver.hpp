@@ -83,7 +83,8 @@ struct SolverOutput {
 /// Factorisation: A = J W^-1 J^T = L D L^T (m x m, square-root-free Cholesky). The
 /// smallest eigenvalue of A (sigma_min^2) is estimated by inverse iteration warm-started
 /// from the previous cycle (one step per cycle; two near the threshold, three when the row
-/// count changed). Below the threshold eps the damped form A + lambda^2 E is used with
+/// count changed), and bounded by the task solve: lambda_min <= |x_dot| / |A^-1 x_dot|.
+/// Below the threshold eps the damped form A + lambda^2 E is used with
 /// lambda^2 = lambda_max^2 (1 - sigma_min^2 / eps^2) (singularity-robust inverse, Nakamura
 /// 1986): lambda is continuous in the configuration and J J# = E holds exactly away from
 /// singularities. More rows than free dofs make A singular and take the same path.
