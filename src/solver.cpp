@@ -67,6 +67,8 @@ WholeBodySolver::WholeBodySolver(const Model& model, int max_rows, const SolverP
   out_.qdot.setZero(n);
   out_.qdot_task.setZero(n);
   out_.qdot_null.setZero(n);
+  braking_time_per_rate_.resize(n);
+  set_parameters(parameters);
 }
 
 WholeBodySolver::~WholeBodySolver() = default;
@@ -74,6 +76,8 @@ WholeBodySolver::~WholeBodySolver() = default;
 void WholeBodySolver::set_parameters(const SolverParameters& parameters) {
   check(parameters);
   parameters_ = parameters;
+  for (int i = 0; i < model_.num_dofs(); ++i)
+    braking_time_per_rate_[i] = 1.0 / (parameters.nullspace_rate_change_limit * model_.max_speeds()[i]);
 }
 
 void WholeBodySolver::reset() {
@@ -600,11 +604,14 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
     const double* position = q->data();
     const double* qdot = out_.qdot.data();
     const double* speed = vmax.data();
+    // Close: where the dof would be after this cycle's step, or after its braking distance
+    // v |v| / (k v_max) at the rate it has, lies beyond a limit.
+    const double* braking_time_per_rate = braking_time_per_rate_.data();  // 1 / (k v_max)
     bool close = false;
     for (int i = 0; i < n; ++i) {
       const double v = qdot[i];
-      const double d = internal::distance_ahead(v, position[i], lower[i], upper[i]);
-      close |= (v * v > k * speed[i] * d) | (std::abs(v) * dt > d);
+      const double reach = position[i] + v * std::max(dt, std::abs(v) * braking_time_per_rate[i]);
+      close |= (reach > upper[i]) | (reach < lower[i]);
     }
     for (int i = 0; close && i < n; ++i) {
       const double v = qdot[i];

@@ -201,6 +201,7 @@ class WholeBodySolver {
   Eigen::VectorXd previous_qdot_;  // the last solve's q_dot and x_dot (adapt_damping)
   Eigen::VectorXd previous_xdot_;
   int previous_xdot_rows_ = -1;
+  Eigen::VectorXd braking_time_per_rate_;  // 1 / (k v_max,i): the braking distance is v |v| times this
   double damping_factor_ = 1.0;   // times lambda^2 from sigma_min, while near a singularity
   double raised_at_rate_ = 1.0;   // |x_dot| when it was last raised
   double effective_damping_factor_ = 1.0;  // this solve's: scaled by |x_dot| / raised_at_rate_
