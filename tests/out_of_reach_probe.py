@@ -9,7 +9,10 @@ and without balance; 14 s at 2 ms, every cycle recorded), runs them with `wbm ru
 prints for each the largest joint acceleration in the last 1.5 s (second differences of
 the recorded configurations; each trajectory.csv is removed then, unless --keep) and the
 elements' final errors, then how many runs exceed 10,
-100 and 1,000 rad/s^2. docs/solver.md quotes its counts. With --check (CTest
+100 and 1,000 rad/s^2, and over the whole runs (summary.json) the median of their largest
+joint accelerations, how many exceed 1,000 and how many clamped a joint at its limit (for
+comparing changes; the runs start with their targets out of reach, so these are not
+checked). docs/solver.md quotes its counts. With --check (CTest
 out_of_reach_probe) it fails when a run exceeds 10 rad/s^2 there: every one comes to rest
 (the largest 0.5 rad/s^2), so a change that unsettles one shows.
 
@@ -40,6 +43,7 @@ import csv
 import itertools
 import json
 import os
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -214,6 +218,8 @@ def main():
             parser.error(f"--random-seeds: expected comma-separated whole numbers, got '{options.random_seeds}'")
         robots = random_variants(seeds, out)
     results = []
+    whole_runs = []  # the largest joint acceleration over each whole run (summary.json)
+    clamped = 0  # runs with a cycle that clamped a joint at its limit
     for name, text in cases(robots, "axes" if options.axes else "attitude" if options.attitude else "hands"):
         path = os.path.join(out, name + ".yaml")
         with open(path, "w", encoding="utf-8") as f:
@@ -227,11 +233,19 @@ def main():
         if not options.keep:
             os.remove(trajectory)  # 4-11 MB each
         with open(os.path.join(out, name, "summary.json"), encoding="utf-8") as f:
-            errors = {k: v["final_error"] for k, v in json.load(f)["elements"].items()}
+            summary = json.load(f)
+        errors = {k: v["final_error"] for k, v in summary["elements"].items()}
+        whole_runs.append(summary["max_joint_acceleration"]["value"])
+        clamped += summary["status_cycles"]["joint_limit_clamped"] > 0
         results.append(worst)
         short = ", ".join(f"{k} {v:.0f} {'deg' if k in ('la', 'ra', 'v') else 'mm'}"
                           for k, v in errors.items() if v is not None)
         print(f"{name:34s} {worst:10.1f} rad/s^2 ({dof}); short by {short}", flush=True)
+    # The whole runs, for comparing changes: hand-overs at limits, damped swings near
+    # singularities, joints clamped at their limits (not checked: the runs start out of reach).
+    print(f"over the whole runs: median of the largest joint accelerations "
+          f"{statistics.median(whole_runs):.0f} rad/s^2, {sum(a > 1000 for a in whole_runs)} of {len(whole_runs)} "
+          f"runs above 1000, {clamped} with a joint clamped at its limit")
     failed = False
     for bound in (10, 100, 1000):
         count = sum(a > bound for a in results)
