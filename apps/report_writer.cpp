@@ -174,11 +174,16 @@ std::string render_report(const ScenarioRun& run) {
   };
   json plots = json::array();
   json joints = json::array(), virtual_dofs = json::array();
+  bool prismatic_joints = false;  // e.g. a torso lift: "Joint positions", rad and m
   for (int i = 0; i < model.num_dofs(); ++i) {
     json sr = series(model.dof(i).name, [&](int k) { return run.q[k][i]; });
-    (model.dof(i).role == DofRole::kJoint ? joints : virtual_dofs).push_back(sr);
+    const bool joint = model.dof(i).role == DofRole::kJoint;
+    prismatic_joints = prismatic_joints || (joint && model.dof(i).type == JointType::kPrismatic);
+    (joint ? joints : virtual_dofs).push_back(sr);
   }
-  plots.push_back({{"title", "Joint angles"}, {"unit", "rad"}, {"series", joints}});
+  plots.push_back({{"title", prismatic_joints ? "Joint positions" : "Joint angles"},
+                   {"unit", prismatic_joints ? "rad, m" : "rad"},
+                   {"series", joints}});
   if (!virtual_dofs.empty()) plots.push_back({{"title", "Heel and upper-body dofs"}, {"unit", "m, rad"}, {"series", virtual_dofs}});
   json errors = json::array();
   bool any_active = false;  // a scenario that never switches an element on has no errors to plot
@@ -187,8 +192,7 @@ std::string render_report(const ScenarioRun& run) {
   for (int e = 0; e < stack.num_elements() && any_active; ++e) {
     const std::string& type = s.tasks[e].type;
     const double scale = type == "axis" || type == "attitude" ? 180.0 / M_PI : type == "joints" ? 1.0 : 1000.0;
-    const char* unit = type == "axis" || type == "attitude" ? " [deg]" : type == "joints" ? " [rad]" : " [mm]";
-    errors.push_back(series(s.tasks[e].name + unit, [&](int k) {
+    errors.push_back(series(s.tasks[e].name + " [" + error_unit(model, s.tasks[e]) + "]", [&](int k) {
       return run.active[k][e] > 0.0 ? scale * run.error[k][e] : std::nan("");
     }));
   }

@@ -350,6 +350,18 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
   return run;
 }
 
+std::string error_unit(const Model& model, const ScenarioTask& task) {
+  if (task.type == "axis" || task.type == "attitude") return "deg";
+  if (task.type != "joints") return "mm";
+  bool angles = false, lengths = false;
+  for (const std::string& dof : task.dofs) {
+    const bool prismatic = model.dof(model.dof_index(dof)).type == JointType::kPrismatic;
+    lengths = lengths || prismatic;
+    angles = angles || !prismatic;
+  }
+  return angles && lengths ? "rad, m" : lengths ? "m" : "rad";
+}
+
 json summarize(const ScenarioRun& run) {
   const Scenario& s = run.scenario;
   const Model& model = *run.model;
@@ -365,6 +377,7 @@ json summarize(const ScenarioRun& run) {
   out["cycles"] = K - 1;
   json elements = json::object();
   for (int i = 0; i < static_cast<int>(s.tasks.size()); ++i) {
+    const std::string unit = error_unit(model, s.tasks[i]);
     const std::string& type = run.element_types[i];
     const bool angular = type == "axis" || type == "attitude";
     double max_error = 0.0, max_tracking = 0.0;
@@ -374,7 +387,7 @@ json summarize(const ScenarioRun& run) {
         max_tracking = std::max(max_tracking, run.tracking_error[k][i]);
       }
     elements[s.tasks[i].name] = {{"type", type},
-                                 {"unit", angular ? "deg" : (type == "joints" ? "rad" : "mm")},
+                                 {"unit", unit},
                                  {"active_at_end", run.active[K - 1][i] > 0.0},
                                  {"final_error", run.active[K - 1][i] > 0.0
                                                      ? json(run.error[K - 1][i] * (angular ? 180.0 / M_PI : type == "joints" ? 1.0 : 1000.0))

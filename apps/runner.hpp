@@ -53,6 +53,10 @@ struct RunOptions {
 /// @throws ConfigError / ModelError naming the scenario line for unknown names or sizes.
 std::unique_ptr<ScenarioRun> run_scenario(const Scenario& scenario, const RunOptions& options = {});
 
+/// The unit summary.json and the report give an element's errors in: "deg" (axis,
+/// attitude), "mm" (position, com), and for joints "rad", "m" (prismatic dofs) or "rad, m".
+std::string error_unit(const Model& model, const ScenarioTask& task);
+
 /// Per-element final and maximum errors, joint speed/acceleration maxima, limit distances,
 /// cycle-time statistics and status counts.
 nlohmann::json summarize(const ScenarioRun& run);

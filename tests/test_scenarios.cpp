@@ -642,6 +642,24 @@ TEST(Scenarios, EveryShippedScenarioRunsAndWritesItsOutputs) {
   EXPECT_GE(count, 10);
 }
 
+// Errors of joint elements are given in the dofs' unit: a torso lift (prismatic) in m, not
+// in rad as every joint element's were; a lift and an arm joint together in "rad, m".
+TEST(Scenarios, JointElementErrorsCarryTheUnitOfTheirDofs) {
+  const auto run = run_scenario(parse_scenario(
+      "name: units\nrobot: {urdf: '" + wbm_test::shipped_model("dual_arm").path +
+          "', fixed_base: true}\ndt: 0.01\nduration: 0.1\n"
+          "tasks: [{name: lift, type: joints, dofs: [torso_lift]}, {name: arm, type: joints, dofs: [left_joint1]},\n"
+          "        {name: both, type: joints, dofs: [torso_lift, left_joint1]}, {name: tool, type: position, frame: left_tool},\n"
+          "        {name: grasp, type: axis, frame: left_tool}]\n",
+      "units.yaml", "."));
+  const nlohmann::json summary = summarize(*run);
+  EXPECT_EQ(summary["elements"]["lift"]["unit"], "m");
+  EXPECT_EQ(summary["elements"]["arm"]["unit"], "rad");
+  EXPECT_EQ(summary["elements"]["both"]["unit"], "rad, m");
+  EXPECT_EQ(summary["elements"]["tool"]["unit"], "mm");
+  EXPECT_EQ(summary["elements"]["grasp"]["unit"], "deg");
+}
+
 // A robot on a fixed base (robot.fixed_base): the nine virtual dofs stay exactly upright
 // (the root link at its height, not shifted, not tilted) while the arms and the torso lift
 // take a box from the sides, lift it and push it.
