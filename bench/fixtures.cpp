@@ -765,7 +765,7 @@ void Fixture::check_wbm() {
     if (record) solves.record(c, status);
     damped += status.has(wbm::kDamped);
     frozen += status.has(wbm::kDofAtLimitFrozen);
-    limited += status.has(wbm::kDamped) || status.has(wbm::kDofAtLimitFrozen);
+    limited += status.has(wbm::kDamped) || status.has(wbm::kDofAtLimitFrozen) || status.has(wbm::kDofBraked);
     overdetermined += status.has(wbm::kOverdetermined);
     scaled += status.has(wbm::kNullSpaceSpeedScaled) || status.has(wbm::kNullSpaceJerkLimited) ||
               status.has(wbm::kTaskSpeedLimited);

@@ -29,12 +29,13 @@ struct RecordedSolves {
   std::size_t size() const { return J.size(); }
 
   /// Records the cycle `controller.update` just ran and returned `status` for. Cycles that
-  /// froze a dof at its limit (the stage solves without q, so without the limit checks) or
-  /// damped (sigma_min estimated from another warm start) are recorded but not compared.
+  /// froze a dof at its limit or braked one before it (the stage solves without q, so
+  /// without either) or damped (sigma_min estimated from another warm start) are recorded
+  /// but not compared.
   void record(const wbm::Controller& controller, const wbm::ControllerStatus& status) {
     J.emplace_back(controller.tasks().jacobian());
     xdot.emplace_back(controller.tasks().task_velocity());
-    qdot_task.push_back(status.has(wbm::kDofAtLimitFrozen) || status.has(wbm::kDamped)
+    qdot_task.push_back(status.has(wbm::kDofAtLimitFrozen) || status.has(wbm::kDofBraked) || status.has(wbm::kDamped)
                             ? Eigen::VectorXd()
                             : Eigen::VectorXd(controller.solver().output().qdot_task));
   }
