@@ -569,9 +569,9 @@ TEST(AttitudeTask, ErrorIsTheRotationToTheTargetWithAllRowsAndTheAngleWithOne) {
 // Inverse iteration continues from the last cycle's vector, one step per cycle away from
 // the threshold. Where the rows turn (here at once) so that A's weak direction is the old
 // vector's orthogonal, that step overestimates sigma_min: A was solved undamped, and a
-// command along the weak direction gave q_dot of thousands of rad/s (H1 hands crossed out
-// of reach: a dof at its speed limit for a cycle). The task solve itself bounds sigma_min
-// (solver.cpp) and damps it.
+// command along the weak direction gave |q_dot| = 60 here (H1 hands crossed out of reach:
+// a shoulder at its 20 rad/s speed limit for a cycle). The task solve itself bounds
+// sigma_min (solver.cpp) and damps it.
 TEST(Solver, AnEstimateThatMissedTheWeakDirectionIsCaughtByTheTaskSolve) {
   const Model model = make_paper_model();
   const int n = model.num_dofs();
