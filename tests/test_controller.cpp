@@ -242,7 +242,7 @@ TEST(Controller, SwitchingAMovingElementOffChangesQdotAtMostByTheRateLimit) {
 }
 
 // A dof driven into its position limit: the paper clamps it there (IV.E), so it stopped
-// within a cycle (the paper model's elbow at 2 rad/s: 2,000 rad/s^2). It is braked before
+// within a cycle (the paper model's elbow at 1.7 rad/s: 1,700 rad/s^2). It is braked before
 // the limit now (kDofBraked) and lands on it: its rate changes by at most k v_max dt per
 // cycle and it is never clamped. With k = 0 (braking off) it still stops at once.
 TEST(Controller, ADofDrivenIntoItsLimitIsBrakedAndLandsOnIt) {
