@@ -143,13 +143,25 @@ ControllerStatus Controller::update(const Command& command, double dt) {
   }
   was_row_active_ = stack_.activation();
   const int m = stack_.assemble(model_, data_);
-  // The external velocity as it will be realised: a dof at a limit does not move further.
+  // The external velocity as it will be realised: braked before a limit as the solver
+  // brakes its own rates (k > 0), and a dof at a limit does not move further.
   const bool external = command.external_velocity.size() != 0;
   if (external)
     for (int i = 0; i < model_.num_dofs(); ++i) {
-      const double v = command.external_velocity[i];
-      external_[i] = v == 0.0 ? 0.0
-                              : (std::clamp(q_[i] + v * dt, model_.lower_limits()[i], model_.upper_limits()[i]) - q_[i]) / dt;
+      double v = command.external_velocity[i];
+      if (v == 0.0) {
+        external_[i] = 0.0;
+        continue;
+      }
+      const double lower = model_.lower_limits()[i], upper = model_.upper_limits()[i];
+      const double k = solver_parameters_.nullspace_rate_change_limit;
+      if (k > 0.0) {
+        const double braked =
+            internal::braked_rate(v, internal::distance_ahead(v, q_[i], lower, upper), k * model_.max_speeds()[i], dt);
+        if (std::abs(braked) < std::abs(v)) status.flags |= kDofBraked;
+        v = braked;
+      }
+      external_[i] = (std::clamp(q_[i] + v * dt, lower, upper) - q_[i]) / dt;
     }
   if (external && command.compensate_external && m > 0)
     stack_.task_velocity().noalias() -= stack_.jacobian() * external_;

@@ -280,6 +280,43 @@ TEST(Controller, ADofDrivenIntoItsLimitIsBrakedAndLandsOnIt) {
   }
 }
 
+// The same for a dof driven by an external velocity (the balance module's upper-body shift,
+// frozen in b_C): braked before the limit instead of stopping there within a cycle.
+TEST(Controller, AnExternalVelocityIsBrakedBeforeTheLimitToo) {
+  const Model model = make_paper_model();
+  const int shift = model.virtual_dofs().ub_x;
+  const double vmax = model.dof(shift).max_speed, dt = 0.001;
+  for (const double k : {20.0, 0.0}) {
+    SolverParameters parameters;
+    parameters.nullspace_rate_change_limit = k;
+    Controller c(model, parameters);
+    c.add_task(std::make_unique<PositionTask>(model, "r_hand", "r_hand_ref"));
+    c.reset(model.home());
+    Command cmd = c.make_command();
+    cmd.free_dofs[shift] = false;
+    cmd.external_velocity = VectorXd::Zero(model.num_dofs());
+    cmd.external_velocity[shift] = vmax;  // towards the upper limit, at full speed
+    double largest_change = 0.0;
+    bool clamped = false, braked = false;
+    for (int i = 0; i < 2000; ++i) {
+      const double before = c.qdot()[shift];
+      const ControllerStatus status = c.update(cmd, dt);
+      clamped = clamped || status.has(kJointLimitClamped);
+      braked = braked || status.has(kDofBraked);
+      if (i > 0) largest_change = std::max(largest_change, std::abs(c.qdot()[shift] - before));  // from full speed on
+    }
+    EXPECT_EQ(c.q()[shift], model.dof(shift).upper) << "k = " << k;
+    if (k > 0.0) {
+      EXPECT_LE(largest_change, k * vmax * dt * (1 + 1e-9)) << "the rate changed by up to " << largest_change;
+      EXPECT_FALSE(clamped);
+      EXPECT_TRUE(braked);
+    } else {
+      EXPECT_GT(largest_change, 0.5 * vmax) << "without braking it stops at once";
+      EXPECT_FALSE(braked);
+    }
+  }
+}
+
 /// Runs on every shipped model and, through scripts/check_model.sh, on the user's robot.
 class EveryModel : public testing::TestWithParam<wbm_test::ShippedModel> {};
 

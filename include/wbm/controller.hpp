@@ -23,7 +23,8 @@ struct Command {
   Mask task_active;         ///< b_J: one flag per task row (TaskStack::num_rows()).
   Mask free_dofs;           ///< b_C: one flag per dof; false freezes the dof.
   /// Velocities of dofs driven by a separate controller (balance: upper-body x/y shift;
-  /// walking: heel), nq entries or empty. They are integrated (and clamped) whatever b_C
+  /// walking: heel), nq entries or empty. They are integrated (braked before a position
+  /// limit as the solver's rates are, kDofBraked, and clamped) whatever b_C
   /// says; those dofs should be frozen in b_C so the solver leaves them alone (section V).
   Eigen::VectorXd external_velocity;
   /// Feed the task velocity these cause, x_bal = J q_dot_external, into the solver:
