@@ -190,8 +190,7 @@ std::string render_report(const ScenarioRun& run) {
   for (int k : samples)
     for (int e = 0; e < stack.num_elements(); ++e) any_active = any_active || run.active[k][e] > 0.0;
   for (int e = 0; e < stack.num_elements() && any_active; ++e) {
-    const std::string& type = s.tasks[e].type;
-    const double scale = type == "axis" || type == "attitude" ? 180.0 / M_PI : type == "joints" ? 1.0 : 1000.0;
+    const double scale = error_scale(s.tasks[e]);
     errors.push_back(series(s.tasks[e].name + " [" + error_unit(model, s.tasks[e]) + "]", [&](int k) {
       return run.active[k][e] > 0.0 ? scale * run.error[k][e] : std::nan("");
     }));

@@ -350,6 +350,11 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
   return run;
 }
 
+double error_scale(const ScenarioTask& task) {
+  if (task.type == "axis" || task.type == "attitude") return 180.0 / M_PI;
+  return task.type == "joints" ? 1.0 : 1000.0;
+}
+
 std::string error_unit(const Model& model, const ScenarioTask& task) {
   if (task.type == "axis" || task.type == "attitude") return "deg";
   if (task.type != "joints") return "mm";
@@ -377,9 +382,8 @@ json summarize(const ScenarioRun& run) {
   out["cycles"] = K - 1;
   json elements = json::object();
   for (int i = 0; i < static_cast<int>(s.tasks.size()); ++i) {
-    const std::string unit = error_unit(model, s.tasks[i]);
     const std::string& type = run.element_types[i];
-    const bool angular = type == "axis" || type == "attitude";
+    const double scale = error_scale(s.tasks[i]);
     double max_error = 0.0, max_tracking = 0.0;
     for (int k = 0; k < K; ++k)
       if (run.active[k][i] > 0.0) {
@@ -387,13 +391,11 @@ json summarize(const ScenarioRun& run) {
         max_tracking = std::max(max_tracking, run.tracking_error[k][i]);
       }
     elements[s.tasks[i].name] = {{"type", type},
-                                 {"unit", unit},
+                                 {"unit", error_unit(model, s.tasks[i])},
                                  {"active_at_end", run.active[K - 1][i] > 0.0},
-                                 {"final_error", run.active[K - 1][i] > 0.0
-                                                     ? json(run.error[K - 1][i] * (angular ? 180.0 / M_PI : type == "joints" ? 1.0 : 1000.0))
-                                                     : json(nullptr)},
-                                 {"max_error", max_error * (angular ? 180.0 / M_PI : type == "joints" ? 1.0 : 1000.0)},
-                                 {"max_tracking_error", max_tracking * (angular ? 180.0 / M_PI : type == "joints" ? 1.0 : 1000.0)}};
+                                 {"final_error", run.active[K - 1][i] > 0.0 ? json(run.error[K - 1][i] * scale) : json(nullptr)},
+                                 {"max_error", max_error * scale},
+                                 {"max_tracking_error", max_tracking * scale}};
   }
   out["elements"] = elements;
   double max_speed_ratio = 0.0, max_speed = 0.0, max_acc = 0.0, min_limit = std::numeric_limits<double>::infinity();

@@ -56,6 +56,8 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& scenario, const RunOpt
 /// The unit summary.json and the report give an element's errors in: "deg" (axis,
 /// attitude), "mm" (position, com), and for joints "rad", "m" (prismatic dofs) or "rad, m".
 std::string error_unit(const Model& model, const ScenarioTask& task);
+/// The factor from the element's error (m, rad) to that unit: 1000, 180 / pi or 1.
+double error_scale(const ScenarioTask& task);
 
 /// Per-element final and maximum errors, joint speed/acceleration maxima, limit distances,
 /// cycle-time statistics and status counts.
