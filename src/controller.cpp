@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "wbm/errors.hpp"
 
@@ -64,8 +66,6 @@ void Controller::reset(const Eigen::VectorXd& q) {
   commanded_ = values_;
   was_active_.setConstant(stack_.num_elements(), false);
   was_row_active_.setConstant(stack_.num_rows(), false);
-  previous_free_.setConstant(model_.num_dofs(), true);
-  in_transition_ = false;
   limited_.setZero(model_.num_dofs());
   for (int i = 0; i < stack_.num_elements(); ++i) {
     const int t0 = stack_.target_offset(i), n = stack_.element(i).target_dim();
@@ -83,6 +83,30 @@ Command Controller::make_command() const {
   return c;
 }
 
+namespace {
+
+/// True if |v_i - (last_i - external_i)| > k_dt vmax_i for some i < n: a rate changed by more
+/// than the bound against the one realised last cycle. One pass without a branch per dof, two
+/// dofs per operation (the common case: none did).
+bool rate_change_exceeds(const double* v, const double* last, const double* external, const double* vmax,
+                         double k_dt, int n) {
+  int i = 0;
+  bool exceeded = false;
+#if defined(__SSE2__)
+  const __m128d k = _mm_set1_pd(k_dt), sign = _mm_set1_pd(-0.0);
+  __m128d any = _mm_setzero_pd();
+  for (; i + 1 < n; i += 2) {
+    const __m128d d = _mm_sub_pd(_mm_loadu_pd(v + i), _mm_sub_pd(_mm_loadu_pd(last + i), _mm_loadu_pd(external + i)));
+    any = _mm_or_pd(any, _mm_cmpgt_pd(_mm_andnot_pd(sign, d), _mm_mul_pd(k, _mm_loadu_pd(vmax + i))));
+  }
+  exceeded = _mm_movemask_pd(any) != 0;
+#endif
+  for (; i < n; ++i) exceeded = exceeded || std::abs(v[i] - (last[i] - external[i])) > k_dt * vmax[i];
+  return exceeded;
+}
+
+}  // namespace
+
 ControllerStatus Controller::update(const Command& command, double dt) {
   ControllerStatus status;
   const int nt = stack_.num_targets();
@@ -95,12 +119,6 @@ ControllerStatus Controller::update(const Command& command, double dt) {
     return status;
   }
   stack_.activation() = command.task_active;
-  // A change of the active rows or of b_C changes the structure of the solution (III, IV.D).
-  // (Byte compares: Eigen's element-wise compare of the masks cost 200 instructions a cycle.)
-  const int n_rows = stack_.num_rows(), n_dofs = model_.num_dofs();
-  bool structure_changed = std::memcmp(command.task_active.data(), was_row_active_.data(), n_rows) != 0 ||
-                           std::memcmp(command.free_dofs.data(), previous_free_.data(), n_dofs) != 0;
-  std::memcpy(previous_free_.data(), command.free_dofs.data(), n_dofs);
   for (int i = 0; i < stack_.num_elements(); ++i) {
     const TaskElement& e = stack_.element(i);
     const int t0 = stack_.target_offset(i), n = e.target_dim();
@@ -143,8 +161,10 @@ ControllerStatus Controller::update(const Command& command, double dt) {
   }
   was_row_active_ = stack_.activation();
   const int m = stack_.assemble(model_, data_);
-  // The external velocity as it will be realised: braked before a limit as the solver
-  // brakes its own rates (k > 0), and a dof at a limit does not move further.
+  // The external velocity as it will be realised: on a dof frozen in b_C (the balance
+  // module's upper-body shift) it is that dof's whole rate, whose change per cycle is bounded
+  // by k v_max dt as the solver's rates are below (k > 0); braked before a limit as the
+  // solver brakes its own rates; and a dof at a limit does not move further.
   const bool external = command.external_velocity.size() != 0;
   if (external)
     for (int i = 0; i < model_.num_dofs(); ++i) {
@@ -156,6 +176,10 @@ ControllerStatus Controller::update(const Command& command, double dt) {
       const double lower = model_.lower_limits()[i], upper = model_.upper_limits()[i];
       const double k = solver_parameters_.nullspace_rate_change_limit;
       if (k > 0.0) {
+        if (!command.free_dofs[i]) {
+          const double step = k * model_.max_speeds()[i] * dt;
+          v = std::clamp(v, qdot_[i] - step, qdot_[i] + step);
+        }
         const double braked =
             internal::braked_rate(v, internal::distance_ahead(v, q_[i], lower, upper), k * model_.max_speeds()[i], dt);
         if (std::abs(braked) < std::abs(v)) status.flags |= kDofBraked;
@@ -173,35 +197,34 @@ ControllerStatus Controller::update(const Command& command, double dt) {
     qdot_.setZero();
     return status;
   }
-  // Where rows or dofs were switched (by the command, or dofs frozen at or released from
-  // their limits), the solution changes its structure and q_dot can jump: a task switched
-  // off while moving takes its rate away at once. The paper limits the change of the null-
-  // space rates (IV.E); here, from such a cycle until q_dot has caught up, the change of
-  // every free dof's rate per cycle is limited the same way, to k vmax dt (k the solver's
-  // nullspace_rate_change_limit; 0 switches both off). Dofs frozen by b_C stop at once.
+  // The change of every free dof's rate per cycle is limited to k v_max dt against the rate
+  // realised in the last cycle (k the solver's nullspace_rate_change_limit; 0 switches it
+  // off): the bound the paper puts on the null-space rates (IV.E), on the whole q_dot. It
+  // binds where the solution jumps or swings: rows or dofs switched (an element switched off
+  // while moving takes its rate away at once), dofs frozen at or released from their limits,
+  // a damped solution leaving a singularity. Dofs frozen by b_C stop at once.
   const Eigen::VectorXd* qdot = &solver_->output().qdot;
-  structure_changed = structure_changed || solver_->output().frozen_set_changed;
   const double rate_limit = solver_parameters_.nullspace_rate_change_limit;
-  if (rate_limit > 0.0 && (structure_changed || in_transition_)) {
-    in_transition_ = false;
+  if (!external) external_.setZero();
+  if (rate_limit > 0.0 && rate_change_exceeds(qdot->data(), qdot_.data(), external_.data(),
+                                              model_.max_speeds().data(), rate_limit * dt, model_.num_dofs())) {
     const Eigen::VectorXd& vmax = model_.max_speeds();
     for (int i = 0; i < model_.num_dofs(); ++i) {
       double v = (*qdot)[i];
-      if (command.free_dofs[i]) {
-        const double step = rate_limit * vmax[i] * dt;
-        // The rate realised last cycle (without external velocities), within the speed
-        // limit: over a tiny dt its rounding can put it an ulp / dt beyond.
-        const double realised = qdot_[i] - (external ? external_[i] : 0.0);
-        const double from = solver_parameters_.limit_speeds ? std::clamp(realised, -vmax[i], vmax[i]) : realised;
-        if (std::abs(v - from) > step) {
-          v = from + std::copysign(step, v - from);
-          in_transition_ = true;
-          // Not faster towards a limit than the solver's braking allows (where dt varies, a
-          // rate within it last cycle may not be now): better a harder brake than the clamp.
-          v = internal::braked_rate(
-              v, internal::distance_ahead(v, q_[i], model_.lower_limits()[i], model_.upper_limits()[i]),
-              rate_limit * vmax[i], dt);
-        }
+      const double step = rate_limit * vmax[i] * dt;
+      // The rate realised last cycle (without external velocities), within the speed limit:
+      // over a tiny dt its rounding can put it an ulp / dt beyond.
+      const double realised = qdot_[i] - external_[i];
+      const double from = solver_parameters_.limit_speeds ? std::clamp(realised, -vmax[i], vmax[i]) : realised;
+      if (std::abs(v - from) > step && command.free_dofs[i]) {
+        v = from + std::copysign(step, v - from);
+        // Not faster towards a limit than the solver's braking allows (where dt varies, a rate
+        // within it last cycle may not be now): better a harder brake than the clamp.
+        const double braked = internal::braked_rate(
+            v, internal::distance_ahead(v, q_[i], model_.lower_limits()[i], model_.upper_limits()[i]),
+            rate_limit * vmax[i], dt);
+        if (std::abs(braked) < std::abs(v)) status.flags |= kDofBraked;
+        v = braked;
       }
       limited_[i] = v;
     }

@@ -75,10 +75,11 @@ class Controller {
   /// this cycle and the solve repeated (at most WholeBodySolver::kMaxFreezeRounds times),
   /// so that the other dofs take over its share instead of the task stalling against the
   /// clamp (IV.E clamps; this keeps the clamp from fighting the task).
-  /// Where active rows or b_C change, or dofs are frozen at or released from their limits,
-  /// each free dof's rate then changes by at most k v_max dt per cycle (k the solver's
-  /// nullspace_rate_change_limit) until q_dot has caught up with the solver's: an element
-  /// switched off while moving slows down instead of stopping within a cycle.
+  /// Each free dof's rate changes by at most k v_max dt per cycle (k the solver's
+  /// nullspace_rate_change_limit; 0 turns this off): an element switched off while moving
+  /// slows down instead of stopping within a cycle, and a damped solution leaving a
+  /// singularity does not swing faster. Dofs frozen by b_C stop at once; an external
+  /// velocity on such a dof (the balance shift) is its rate, bounded the same way.
   ControllerStatus update(const Command& command, double dt);
 
   const Model& model() const { return model_; }
@@ -111,13 +112,11 @@ class Controller {
   std::unique_ptr<WholeBodySolver> solver_;  // sized in reset() for the final task rows
   Eigen::VectorXd q_, qdot_, q_next_, gradient_, values_, previous_values_, value_rates_;
   Eigen::VectorXd q_total_;   // solver output plus external velocities
-  Eigen::VectorXd external_;  // external velocities as realised within the limits
+  Eigen::VectorXd external_;  // external velocities as realised within the limits (0: none)
   Mask was_active_, was_row_active_;
   bool needs_center_of_mass_ = false;
   bool any_periodic_targets_ = false;  // an element with a target period (angles)
-  Mask previous_free_;                 // last cycle's b_C
-  bool in_transition_ = false;         // q_dot still catching up after a change of rows or dofs
-  Eigen::VectorXd limited_;            // q_dot with its change per cycle limited (transitions)
+  Eigen::VectorXd limited_;            // q_dot with its change per cycle limited
   Eigen::VectorXd commanded_;  // last valid target per element
 };
 

@@ -30,7 +30,7 @@ struct SolverParameters {
   /// it off. When exceeded, the whole null-space vector is scaled down (direction kept).
   /// Not applied in a solve where the set of dofs frozen at their limits changes (the
   /// task/null-space split changes there; docs/solver.md). The Controller uses the same
-  /// factor to limit the change of the whole q_dot after such structural changes.
+  /// factor to limit the change of the whole q_dot in every cycle.
   double nullspace_rate_change_limit = 20.0;
   /// Scale velocities so that no dof exceeds its speed limit (IV.E).
   bool limit_speeds = true;
