@@ -251,6 +251,10 @@ std::string render_report(const ScenarioRun& run) {
   }
   table.push_back({"max joint speed / limit", std::to_string(summary["max_joint_speed"]["ratio_to_limit"].get<double>()) +
                                                   " (" + summary["max_joint_speed"]["dof"].get<std::string>() + ")"});
+  if (summary.contains("max_joint_acceleration_to_bound"))
+    table.push_back({"max joint acceleration / bound k v_max",
+                     std::to_string(summary["max_joint_acceleration_to_bound"]["ratio"].get<double>()) + " (" +
+                         summary["max_joint_acceleration_to_bound"]["dof"].get<std::string>() + ")"});
   table.push_back({"min distance to a joint limit",
                    std::to_string(summary["min_distance_to_limit"]["value"].get<double>()) + " (" +
                        summary["min_distance_to_limit"]["dof"].get<std::string>() + ")"});

@@ -400,6 +400,10 @@ json summarize(const ScenarioRun& run) {
   out["elements"] = elements;
   double max_speed_ratio = 0.0, max_speed = 0.0, max_acc = 0.0, min_limit = std::numeric_limits<double>::infinity();
   int speed_dof = 0, acc_dof = 0, limit_dof = 0;
+  // The Controller's bound on the change of a rate, k v_max (k = the solver's jerk_limit).
+  const double k_rate = s.solver.nullspace_rate_change_limit;
+  double max_acc_ratio = 0.0;
+  int acc_ratio_dof = 0;
   for (int k = 0; k < K; ++k)
     for (int i = 0; i < n; ++i) {
       const double v = std::abs(run.qdot[k][i]);
@@ -414,6 +418,10 @@ json summarize(const ScenarioRun& run) {
           max_acc = a;
           acc_dof = i;
         }
+        if (k_rate > 0.0 && a / (k_rate * model.dof(i).max_speed) > max_acc_ratio) {
+          max_acc_ratio = a / (k_rate * model.dof(i).max_speed);
+          acc_ratio_dof = i;
+        }
       }
       if (!model.dof(i).continuous && model.dof(i).role == DofRole::kJoint) {
         const double d = std::min(run.q[k][i] - model.dof(i).lower, model.dof(i).upper - run.q[k][i]);
@@ -425,6 +433,9 @@ json summarize(const ScenarioRun& run) {
     }
   out["max_joint_speed"] = {{"value", max_speed}, {"dof", model.dof(speed_dof).name}, {"ratio_to_limit", max_speed_ratio}};
   out["max_joint_acceleration"] = {{"value", max_acc}, {"dof", model.dof(acc_dof).name}};
+  if (k_rate > 0.0)
+    out["max_joint_acceleration_to_bound"] = {{"ratio", max_acc_ratio}, {"dof", model.dof(acc_ratio_dof).name},
+                                              {"bound", k_rate * model.dof(acc_ratio_dof).max_speed}};
   out["min_distance_to_limit"] = {{"value", std::isfinite(min_limit) ? min_limit : 0.0}, {"dof", model.dof(limit_dof).name}};
   std::vector<double> us(run.cycle_us.begin() + 1, run.cycle_us.end());
   std::sort(us.begin(), us.end());

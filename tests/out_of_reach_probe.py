@@ -12,9 +12,11 @@ elements' final errors, then how many runs exceed 10,
 100 and 1,000 rad/s^2, and over the whole runs (summary.json) the median of their largest
 joint accelerations, how many exceed 1,000 and how many clamped a joint at its limit (for
 comparing changes; the runs start with their targets out of reach, so these are not
-checked). docs/solver.md quotes its counts. With --check (CTest
-out_of_reach_probe) it fails when a run exceeds 10 rad/s^2 there: every one comes to rest
-(the largest 0.5 rad/s^2), so a change that unsettles one shows.
+checked), and the runs in which a joint's rate changed faster than the Controller's
+bound k v_max (summary.json's max_joint_acceleration_to_bound). docs/solver.md quotes its
+counts. With --check (CTest out_of_reach_probe) it fails when a run exceeds 10 rad/s^2
+there: every one comes to rest (the largest 0.5 rad/s^2), so a change that unsettles one
+shows; and when a run exceeds the bound anywhere.
 
   python3 tests/out_of_reach_probe.py WBM OUT_DIR --random-seeds 1,3,4 [--check]
 
@@ -220,6 +222,7 @@ def main():
     results = []
     whole_runs = []  # the largest joint acceleration over each whole run (summary.json)
     clamped = 0  # runs with a cycle that clamped a joint at its limit
+    beyond_bound = []  # runs where a rate changed faster than the Controller's bound k v_max
     for name, text in cases(robots, "axes" if options.axes else "attitude" if options.attitude else "hands"):
         path = os.path.join(out, name + ".yaml")
         with open(path, "w", encoding="utf-8") as f:
@@ -237,6 +240,9 @@ def main():
         errors = {k: v["final_error"] for k, v in summary["elements"].items()}
         whole_runs.append(summary["max_joint_acceleration"]["value"])
         clamped += summary["status_cycles"]["joint_limit_clamped"] > 0
+        bound = summary.get("max_joint_acceleration_to_bound")  # absent where the bound is off (k = 0)
+        if bound and bound["ratio"] > 1 + 1e-9:
+            beyond_bound.append(f"{name} ({bound['dof']}: {bound['ratio']:.3f} x {bound['bound']:.0f} rad/s^2)")
         results.append(worst)
         short = ", ".join(f"{k} {v:.0f} {'deg' if k in ('la', 'ra', 'v') else 'mm'}"
                           for k, v in errors.items() if v is not None)
@@ -246,7 +252,9 @@ def main():
     print(f"over the whole runs: median of the largest joint accelerations "
           f"{statistics.median(whole_runs):.0f} rad/s^2, {sum(a > 1000 for a in whole_runs)} of {len(whole_runs)} "
           f"runs above 1000, {clamped} with a joint clamped at its limit")
-    failed = False
+    print(f"{len(beyond_bound)} of {len(whole_runs)} runs with a joint acceleration beyond its bound k v_max"
+          + "".join(f"\n  {run}" for run in beyond_bound))
+    failed = bool(check and beyond_bound)
     for bound in (10, 100, 1000):
         count = sum(a > bound for a in results)
         print(f"{count} of {len(results)} runs above {bound} rad/s^2 in the last 1.5 s")

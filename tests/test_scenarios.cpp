@@ -619,7 +619,8 @@ TEST(Scenarios, BalanceReportDrawsTheFeetAndTheCentreOfMass) {
   EXPECT_EQ(last[2].get<double>(), 0.0);
 }
 
-/// Every shipped scenario runs cleanly and writes its three (or four) files.
+/// Every shipped scenario runs cleanly, writes its three (or four) files and keeps every
+/// joint's acceleration within the Controller's bound.
 TEST(Scenarios, EveryShippedScenarioRunsAndWritesItsOutputs) {
   namespace fs = std::filesystem;
   const fs::path out = fs::temp_directory_path() / "wbm_scenarios_test";
@@ -638,6 +639,12 @@ TEST(Scenarios, EveryShippedScenarioRunsAndWritesItsOutputs) {
     std::string header;
     std::getline(csv, header);
     EXPECT_EQ(header.rfind("time,status,q.", 0), 0u) << header;
+    // No joint's rate changed faster than the Controller's bound k v_max (the balance
+    // shift's start: 6x it before the bound covered external velocities).
+    const nlohmann::json summary = summarize(*run);
+    ASSERT_TRUE(summary.contains("max_joint_acceleration_to_bound")) << s.name;
+    EXPECT_LE(summary["max_joint_acceleration_to_bound"]["ratio"].get<double>(), 1.0 + 1e-9)
+        << s.name << ": " << summary["max_joint_acceleration_to_bound"].dump();
   }
   EXPECT_GE(count, 10);
 }
