@@ -161,10 +161,11 @@ ControllerStatus Controller::update(const Command& command, double dt) {
   }
   was_row_active_ = stack_.activation();
   const int m = stack_.assemble(model_, data_);
-  // The external velocity as it will be realised: on a dof frozen in b_C (the balance
-  // module's upper-body shift) it is that dof's whole rate, whose change per cycle is bounded
-  // by k v_max dt as the solver's rates are below (k > 0); braked before a limit as the
-  // solver brakes its own rates; and a dof at a limit does not move further.
+  // The external velocity as it will be realised: within the dof's speed limit (limit_speeds);
+  // on a dof frozen in b_C (the balance module's upper-body shift) it is that dof's whole
+  // rate, whose change per cycle is bounded by k v_max dt as the solver's rates are below
+  // (k > 0); braked before a limit as the solver brakes its own rates; and a dof at a limit
+  // does not move further.
   const bool external = command.external_velocity.size() != 0;
   if (external)
     for (int i = 0; i < model_.num_dofs(); ++i) {
@@ -175,6 +176,7 @@ ControllerStatus Controller::update(const Command& command, double dt) {
       }
       const double lower = model_.lower_limits()[i], upper = model_.upper_limits()[i];
       const double k = solver_parameters_.nullspace_rate_change_limit;
+      if (solver_parameters_.limit_speeds) v = std::clamp(v, -model_.max_speeds()[i], model_.max_speeds()[i]);
       if (k > 0.0) {
         if (!command.free_dofs[i]) {
           const double step = k * model_.max_speeds()[i] * dt;

@@ -252,8 +252,9 @@ TEST(Solver, NullSpaceMotionDoesNotMoveTheTask) {
 /// faster than braking allows, no free dof's rate changed by more than k v_max dt. A fixed base stays
 /// frozen throughout. kJitter: every cycle has another dt in [0.25, 4] ms (a loop that
 /// passes the measured period). kExtreme: half the cycles a dt from 1e-12 to 10 s, targets
-/// up to 1e200 m or rad away, now and then every dof frozen.
-enum class Commands { kNormal, kJitter, kExtreme };
+/// up to 1e200 m or rad away, now and then every dof frozen. kExternal: external velocities
+/// (up to 1.5 v_max, either sign) on random dofs frozen in b_C, now and then none.
+enum class Commands { kNormal, kJitter, kExtreme, kExternal };
 
 void random_controller_run(const wbm_test::ShippedModel& entry, unsigned seed, int cycles,
                            const std::vector<std::string>& posture = {}, Commands commands = Commands::kNormal) {
@@ -288,6 +289,12 @@ void random_controller_run(const wbm_test::ShippedModel& entry, unsigned seed, i
       for (int i = 0; i < cmd.free_dofs.size(); ++i) cmd.free_dofs[i] = !freeze(rng) && !(extreme && rare(rng));
       entry.freeze_base(model, cmd.free_dofs);
       if (coin(rng)) cmd.targets[0] = std::nan("");
+      if (commands == Commands::kExternal) {
+        cmd.external_velocity.setZero(coin(rng) || rare(rng) ? model.num_dofs() : 0);
+        for (int i = 0; i < cmd.external_velocity.size(); ++i)
+          if (!cmd.free_dofs[i] && coin(rng)) cmd.external_velocity[i] = 1.5 * model.dof(i).max_speed * u(rng);
+        cmd.compensate_external = coin(rng);
+      }
     }
     const VectorXd q_before = c.q(), qdot_before = c.qdot();
     const ControllerStatus st = c.update(cmd, dt);
@@ -301,7 +308,8 @@ void random_controller_run(const wbm_test::ShippedModel& entry, unsigned seed, i
       const double rounding = 2.0 * std::numeric_limits<double>::epsilon() * (1.0 + std::abs(q_before[i])) / dt;
       ASSERT_LE(std::abs(c.qdot()[i]), model.dof(i).max_speed * (1 + 1e-9) + rounding)
           << model.dof(i).name << " cycle " << k << " dt " << dt;
-      if (!cmd.free_dofs[i]) { ASSERT_EQ(q[i], q_before[i]) << "frozen " << model.dof(i).name << " cycle " << k; }
+      const bool driven = cmd.external_velocity.size() != 0 && cmd.external_velocity[i] != 0.0;
+      if (!cmd.free_dofs[i] && !driven) { ASSERT_EQ(q[i], q_before[i]) << "frozen " << model.dof(i).name << " cycle " << k; }
       // Towards a limit d away, no faster than stops there at k v_max / 2 (k = 20/s): the
       // dof is braked, not stopped by the clamp.
       const double v = c.qdot()[i];
@@ -311,7 +319,7 @@ void random_controller_run(const wbm_test::ShippedModel& entry, unsigned seed, i
       // A free dof's rate changes by at most k v_max dt per cycle (the Controller's bound),
       // but in a cycle that failed (q_dot 0 at once). Braking after the bound may cut more
       // where dt varies (the jittered runs); the extreme dts are left out.
-      if (cmd.free_dofs[i] && st.ok() && commands != Commands::kExtreme &&
+      if ((cmd.free_dofs[i] || driven) && st.ok() && commands != Commands::kExtreme &&
           !(commands == Commands::kJitter && st.has(kDofBraked))) {
         ASSERT_LE(std::abs(v - qdot_before[i]), 20.0 * model.dof(i).max_speed * dt * (1 + 1e-9) + 4.0 * rounding)
             << model.dof(i).name << " cycle " << k << " dt " << dt << " rate " << qdot_before[i] << " -> " << v;
@@ -334,6 +342,11 @@ TEST(Controller, RandomRunsKeepLimitsWithJointRows) {
 TEST(Controller, RandomRunsKeepLimitsWithAVaryingCycleTime) {
   for (const char* id : {"paper", "g1_29dof", "dual_arm"})
     random_controller_run(wbm_test::shipped_model(id), 5, property_cases(), {}, Commands::kJitter);
+}
+
+TEST(Controller, RandomRunsWithExternalVelocitiesKeepLimits) {
+  for (const char* id : {"paper", "g1_29dof", "dual_arm"})
+    random_controller_run(wbm_test::shipped_model(id), 7, property_cases(), {}, Commands::kExternal);
 }
 
 TEST(Controller, RandomRunsWithExtremeCycleTimesAndTargetsStayFiniteWithinLimits) {

@@ -23,9 +23,11 @@ struct Command {
   Mask task_active;         ///< b_J: one flag per task row (TaskStack::num_rows()).
   Mask free_dofs;           ///< b_C: one flag per dof; false freezes the dof.
   /// Velocities of dofs driven by a separate controller (balance: upper-body x/y shift;
-  /// walking: heel), nq entries or empty. They are integrated (braked before a position
-  /// limit as the solver's rates are, kDofBraked, and clamped) whatever b_C
-  /// says; those dofs should be frozen in b_C so the solver leaves them alone (section V).
+  /// walking: heel), nq entries or empty. They are integrated (within the dof's speed
+  /// limit if SolverParameters::limit_speeds; on a dof frozen in b_C changing by at most
+  /// k v_max dt per cycle as the solver's rates do; braked before a position limit as they
+  /// are, kDofBraked; and clamped) whatever b_C says; those dofs should be frozen in b_C so
+  /// the solver leaves them alone (section V). [m/s or rad/s]
   Eigen::VectorXd external_velocity;
   /// Feed the task velocity these cause, x_bal = J q_dot_external, into the solver:
   /// q_dot = J# (x_dot_task - x_bal) - alpha N W^-1 dH/dq (eqs. 19-21).
