@@ -233,6 +233,17 @@ int run_scenarios(const std::vector<std::string>& files, const std::string& out,
       if (e["final_error"].is_null()) std::cerr << "inactive at the end\n";
       else std::cerr << "final error " << e["final_error"].get<double>() << " " << e["unit"].get<std::string>() << "\n";
     }
+    {  // how close the joints came to their speed limits and to the bound on their acceleration
+      std::ostringstream joints;
+      joints << std::fixed << std::setprecision(2) << "  joints: fastest at " << summary["max_joint_speed"]["ratio_to_limit"].get<double>()
+             << " of its speed limit (" << summary["max_joint_speed"]["dof"].get<std::string>() << ")";
+      if (summary.contains("max_joint_acceleration_to_bound")) {
+        const json& a = summary["max_joint_acceleration_to_bound"];
+        joints << ", largest acceleration " << a["ratio"].get<double>() << " of its bound k v_max ("
+               << a["dof"].get<std::string>() << ")";
+      }
+      std::cerr << joints.str() << "\n";
+    }
     if (summary.contains("balance") && summary["balance"]["final_com_margin"].is_number()) {
       const double margin = summary["balance"]["final_com_margin"].get<double>();
       std::ostringstream cm;

@@ -253,7 +253,8 @@ TEST(Cli, RunWithAnOutputThatIsAFileFails) {
 }
 
 // The run's last lines say how balance and walking ended, not only the task errors: a
-// centre of mass left outside the feet, or a walk still going, is what a user looks for.
+// centre of mass left outside the feet, or a walk still going, is what a user looks for;
+// and how close the joints came to their limits.
 TEST(Cli, RunSaysHowBalanceAndWalkingEnded) {
   const std::string base = testing::TempDir() + "wbm_cli_balance_" + std::to_string(getpid());
   const std::string inside = base + "_in.yaml", outside = base + "_out.yaml", walk = base + "_walk.yaml";
@@ -273,6 +274,9 @@ TEST(Cli, RunSaysHowBalanceAndWalkingEnded) {
       << r.err;
   EXPECT_NE(r.err.substr(w).find("  walking: 0 footsteps in 0 walks\n"), std::string::npos) << r.err;
   EXPECT_EQ(r.err.substr(w).find("balance:"), std::string::npos) << r.err;
+  // And how close the joints came to their speed limits and to the bound on their rates' change.
+  EXPECT_NE(r.err.substr(in, out - in).find("  joints: fastest at 0."), std::string::npos) << r.err;
+  EXPECT_NE(r.err.substr(in, out - in).find(" of its bound k v_max (upper_body_"), std::string::npos) << r.err;
   for (const std::string& f : {inside, outside, walk}) std::remove(f.c_str());
 }
 
