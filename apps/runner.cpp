@@ -230,7 +230,7 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
 
   std::unique_ptr<BalanceModule> balance;
   bool balance_on = s.balance.enabled;
-  bool balance_needed = s.balance.configured;
+  bool balance_needed = s.balance.configured || s.balance.enabled;
   for (const ScenarioEvent& ev : s.events) balance_needed |= ev.balance == 1;
   FootGeometry feet = s.feet.geometry;
   if (!s.feet.left_frame.empty()) {
@@ -338,7 +338,10 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
     } else if (balance) {
       support = current_support();
     }
-    if (balance && balance_on) balance->update(c.data(), support, s.dt, cmd);
+    // During a walk the upper body is balanced over the feet as planned beside the floating
+    // heel, not over the feet left behind (WalkingModule::planned_support).
+    if (balance && balance_on)
+      balance->update(c.data(), walking && walking->walking() ? walking->planned_support(c.q()) : support, s.dt, cmd);
     const auto t0 = std::chrono::steady_clock::now();
     const ControllerStatus st = c.update(cmd, s.dt);
     last_status = st;

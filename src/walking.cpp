@@ -51,6 +51,10 @@ FootPose WalkingModule::real_heel() const {
 
 SupportPolygon WalkingModule::support() const { return SupportPolygon::from_feet({left_, right_}, feet_); }
 
+SupportPolygon WalkingModule::planned_support(const Eigen::VectorXd& q) const {
+  return SupportPolygon::standing(Vector2(q[heel_dofs_[0]], q[heel_dofs_[1]]), q[heel_dofs_[2]], feet_);
+}
+
 void WalkingModule::target_changed() {
   given_up_ = false;
   walks_without_progress_ = 0;

@@ -321,6 +321,42 @@ TEST(Walking, RobotsWithNarrowAndWideFeetFinishTheirWalk) {
   }
 }
 
+// Walking with balance on: during a walk the upper body is balanced over the feet as
+// planned beside the floating heel (WalkingModule::planned_support). Balanced over the feet
+// left behind, the upper-body shift and the floating heel fought each other: the paper
+// model, NAO and H1 stepped in place for as long as they ran (38, 38 and 38 footsteps in
+// 24 s, the hand long at its target), and the walk never ended.
+TEST(Walking, WithBalanceTheWalkEnds) {
+  auto check = [](const Scenario& s, const std::string& hand, const std::string& id) {
+    const auto run = run_scenario(s);
+    EXPECT_EQ(walks(*run), 1) << id;
+    EXPECT_EQ(final_walking(*run)[3], 0.0) << id << ": still walking after " << run->footsteps.size() << " steps";
+    EXPECT_LE(run->footsteps.size(), 20u) << id;
+    EXPECT_LT(run->error.back()[run->element(hand)], 1e-3) << id;
+    EXPECT_GT(run->balance.back()[6], 0.05) << id << ": the centre of mass over the feet at the end";
+  };
+  Scenario paper = shipped("walk_object_ahead");
+  paper.balance.enabled = true;
+  check(paper, "l_hand", "paper");
+  struct Robot {
+    std::string id, hand, left_foot, right_foot;
+  };
+  for (const Robot& r : {Robot{"nao", "l_gripper", "l_ankle", "r_ankle"},
+                         Robot{"h1", "left_elbow_link", "left_ankle_link", "right_ankle_link"}}) {
+    const wbm_test::ShippedModel& m = wbm_test::shipped_model(r.id);
+    std::string legs;
+    for (const std::string& leg : m.options.legs) legs += (legs.empty() ? "" : ", ") + leg;
+    check(parse_scenario("name: walk\nrobot: {urdf: '" + m.path + "', legs: [" + legs + "]}\nduration: 16\n"
+                         "frozen: [heel_x, heel_y, heel_yaw]\nwalking: {enabled: true}\nbalance: {enabled: true}\n"
+                         "feet: {left_frame: " + r.left_foot + ", right_frame: " + r.right_foot + "}\n"
+                         "tasks: [{name: hand, type: position, frame: " + r.hand +
+                             ", filter: {bandwidth: 3, max_speed: 0.4}}]\n"
+                         "timeline: [{t: 0.2, activate: [hand], relative_targets: {hand: [-1.4, 0.6, 0.0]}}]\n",
+                         "walk.yaml", "."),
+          "hand", r.id);
+  }
+}
+
 TEST(Walking, TargetMovingWhileWalking) {
   Scenario s = shipped("walk_object_ahead");
   s.duration = 20.0;

@@ -74,6 +74,13 @@ class WalkingModule {
   FootPose real_heel() const;
   /// Support polygon of the feet (both feet; during a step the swing foot is on its way).
   SupportPolygon support() const;
+  /// Both feet standing beside the heel of configuration q (x, y, yaw of the heel dofs;
+  /// during a walk the floating heel, where the plan puts the feet and the body goes): the
+  /// support to balance the upper body over while walking(). Balancing over support(), the
+  /// feet left behind, fights the floating heel: walks then stepped in place for as long
+  /// as they ran (docs/solver.md, "Walking").
+  /// @pre q has model.num_dofs() entries.
+  SupportPolygon planned_support(const Eigen::VectorXd& q) const;
 
  private:
   FootPose stance_target(bool left, const Vector2& heel, double yaw) const;
