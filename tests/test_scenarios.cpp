@@ -298,23 +298,33 @@ TEST(Walking, AnAttitudeTargetAWholeTurnAwayIsReachedWithoutWalking) {
   EXPECT_LT(run->error.back()[run->element("a")], 1e-6);
 }
 
+/// NAO (feet 0.10 m apart) and H1 (0.41 m): the hand that walks and the ankles the feet are
+/// measured from.
+struct WalkingRobot {
+  std::string id, hand, left_foot, right_foot;
+};
+const WalkingRobot kNarrowAndWideFeet[] = {{"nao", "l_gripper", "l_ankle", "r_ankle"},
+                                           {"h1", "left_elbow_link", "left_ankle_link", "right_ankle_link"}};
+
+/// 16 s of walking: the robot's hand (element "hand") sent to `offset` [m] from where it is;
+/// `feet` gives the feet's size fields, `extra` more scenario lines.
+Scenario walk_scenario(const WalkingRobot& r, const std::string& feet, const std::string& offset,
+                       const std::string& extra = "") {
+  const wbm_test::ShippedModel& m = wbm_test::shipped_model(r.id);
+  std::string legs;
+  for (const std::string& leg : m.options.legs) legs += (legs.empty() ? "" : ", ") + leg;
+  return parse_scenario(
+      "name: walk\nrobot: {urdf: '" + m.path + "', legs: [" + legs + "]}\nduration: 16\n"
+      "frozen: [heel_x, heel_y, heel_yaw]\nwalking: {enabled: true}\n" + extra + "feet: {" + feet +
+          "left_frame: " + r.left_foot + ", right_frame: " + r.right_foot + "}\n"
+          "tasks: [{name: hand, type: position, frame: " + r.hand + ", filter: {bandwidth: 3, max_speed: 0.4}}]\n"
+          "timeline: [{t: 0.2, activate: [hand], relative_targets: {hand: [" + offset + "]}}]\n",
+      "walk.yaml", ".");
+}
+
 TEST(Walking, RobotsWithNarrowAndWideFeetFinishTheirWalk) {
-  struct Robot {
-    std::string id, hand, left_foot, right_foot;
-  };
-  for (const Robot& r : {Robot{"nao", "l_gripper", "l_ankle", "r_ankle"},
-                         Robot{"h1", "left_elbow_link", "left_ankle_link", "right_ankle_link"}}) {
-    const wbm_test::ShippedModel& m = wbm_test::shipped_model(r.id);
-    std::string legs;
-    for (const std::string& leg : m.options.legs) legs += (legs.empty() ? "" : ", ") + leg;
-    const Scenario s = parse_scenario(
-        "name: walk\nrobot: {urdf: '" + m.path + "', legs: [" + legs + "]}\nduration: 16\n"
-        "frozen: [heel_x, heel_y, heel_yaw]\nwalking: {enabled: true}\n"
-        "feet: {length: 0.15, width: 0.07, left_frame: " + r.left_foot + ", right_frame: " + r.right_foot + "}\n"
-        "tasks: [{name: hand, type: position, frame: " + r.hand + ", filter: {bandwidth: 3, max_speed: 0.4}}]\n"
-        "timeline: [{t: 0.2, activate: [hand], relative_targets: {hand: [1.5, 0.4, 0.0]}}]\n",
-        "walk.yaml", ".");
-    const auto run = run_scenario(s);
+  for (const WalkingRobot& r : kNarrowAndWideFeet) {
+    const auto run = run_scenario(walk_scenario(r, "length: 0.15, width: 0.07, ", "1.5, 0.4, 0.0"));
     EXPECT_EQ(walks(*run), 1) << r.id;
     EXPECT_EQ(final_walking(*run)[3], 0.0) << r.id << ": still walking after " << run->footsteps.size() << " steps";
     EXPECT_LT(run->error.back()[run->element("hand")], 1e-3) << r.id;
@@ -338,23 +348,8 @@ TEST(Walking, WithBalanceTheWalkEnds) {
   Scenario paper = shipped("walk_object_ahead");
   paper.balance.enabled = true;
   check(paper, "l_hand", "paper");
-  struct Robot {
-    std::string id, hand, left_foot, right_foot;
-  };
-  for (const Robot& r : {Robot{"nao", "l_gripper", "l_ankle", "r_ankle"},
-                         Robot{"h1", "left_elbow_link", "left_ankle_link", "right_ankle_link"}}) {
-    const wbm_test::ShippedModel& m = wbm_test::shipped_model(r.id);
-    std::string legs;
-    for (const std::string& leg : m.options.legs) legs += (legs.empty() ? "" : ", ") + leg;
-    check(parse_scenario("name: walk\nrobot: {urdf: '" + m.path + "', legs: [" + legs + "]}\nduration: 16\n"
-                         "frozen: [heel_x, heel_y, heel_yaw]\nwalking: {enabled: true}\nbalance: {enabled: true}\n"
-                         "feet: {left_frame: " + r.left_foot + ", right_frame: " + r.right_foot + "}\n"
-                         "tasks: [{name: hand, type: position, frame: " + r.hand +
-                             ", filter: {bandwidth: 3, max_speed: 0.4}}]\n"
-                         "timeline: [{t: 0.2, activate: [hand], relative_targets: {hand: [-1.4, 0.6, 0.0]}}]\n",
-                         "walk.yaml", "."),
-          "hand", r.id);
-  }
+  for (const WalkingRobot& r : kNarrowAndWideFeet)
+    check(walk_scenario(r, "", "-1.4, 0.6, 0.0", "balance: {enabled: true}\n"), "hand", r.id);
 }
 
 TEST(Walking, TargetMovingWhileWalking) {
