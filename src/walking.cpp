@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <sstream>
+#include <string>
 
 #include "wbm/errors.hpp"
 
@@ -19,6 +20,7 @@ WalkingModule::WalkingModule(const Model& model, const FootGeometry& feet, const
   heel_dofs_[0] = v.heel_x;
   heel_dofs_[1] = v.heel_y;
   heel_dofs_[2] = v.heel_yaw;
+  num_dofs_ = model.num_dofs();
   if (v.heel_x < 0 || v.heel_y < 0 || v.heel_yaw < 0)
     throw ConfigError("walking: model '" + model.name() + "' has no virtual heel dofs");
   if (!(p.max_step_length > 0 && p.max_step_width > p.min_step_width && p.min_step_width >= 0 && p.max_step_turn > 0 &&
@@ -52,6 +54,9 @@ FootPose WalkingModule::real_heel() const {
 SupportPolygon WalkingModule::support() const { return SupportPolygon::from_feet({left_, right_}, feet_); }
 
 SupportPolygon WalkingModule::planned_support(const Eigen::VectorXd& q) const {
+  if (q.size() != num_dofs_)
+    throw ConfigError("walking: planned_support: q has " + std::to_string(q.size()) + " entries, the model " +
+                      std::to_string(num_dofs_) + " dofs");
   return SupportPolygon::standing(Vector2(q[heel_dofs_[0]], q[heel_dofs_[1]]), q[heel_dofs_[2]], feet_);
 }
 

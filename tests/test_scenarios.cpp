@@ -283,6 +283,29 @@ TEST(Walking, StepWidthsMustIncludeTheFootSpacing) {
   }
 }
 
+// The support to balance over during a walk: both feet standing beside the heel of q (the
+// floating heel), whatever the feet do; a q of another size is a ConfigError.
+TEST(Walking, PlannedSupportStandsBesideTheHeelOfQ) {
+  const Model model = make_paper_model();
+  const WalkingModule walking(model, FootGeometry{}, WalkingParameters{});
+  VectorXd q = model.home();
+  const VirtualDofs& v = model.virtual_dofs();
+  q[v.heel_x] = 0.7;
+  q[v.heel_y] = -0.2;
+  q[v.heel_yaw] = 1.1;
+  const SupportPolygon planned = walking.planned_support(q);
+  const SupportPolygon standing = SupportPolygon::standing(Vector2(0.7, -0.2), 1.1, FootGeometry{});
+  EXPECT_LT((planned.centroid() - standing.centroid()).norm(), 1e-12);
+  EXPECT_NEAR(planned.area(), standing.area(), 1e-12);
+  EXPECT_GT((planned.centroid() - walking.support().centroid()).norm(), 0.5);  // not the feet at the origin
+  try {
+    walking.planned_support(VectorXd::Zero(3));
+    ADD_FAILURE() << "accepted a q of 3 entries";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("q has 3 entries, the model 21 dofs"), std::string::npos) << e.what();
+  }
+}
+
 // An attitude target a whole turn from the hand's angles is where the hand is: the walking
 // module's distance to it is the wrapped difference (0), not 2 pi, which, not falling, read
 // as a stalled task and started a walk.

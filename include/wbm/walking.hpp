@@ -79,7 +79,7 @@ class WalkingModule {
   /// support to balance the upper body over while walking(). Balancing over support(), the
   /// feet left behind, fights the floating heel: walks then stepped in place for as long
   /// as they ran (docs/solver.md, "Walking").
-  /// @pre q has model.num_dofs() entries.
+  /// @throws ConfigError if q does not have the model's num_dofs() entries.
   SupportPolygon planned_support(const Eigen::VectorXd& q) const;
 
  private:
@@ -91,6 +91,7 @@ class WalkingModule {
   FootGeometry feet_;
   WalkingParameters p_;
   int heel_dofs_[3];
+  int num_dofs_ = 0;
   bool walking_ = false;
   bool finishing_ = false;  // heel frozen again, feet still stepping to it
   double error_at_trigger_ = 0.0;
