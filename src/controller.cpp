@@ -175,15 +175,11 @@ ControllerStatus Controller::update(const Command& command, double dt) {
         continue;
       }
       const double lower = model_.lower_limits()[i], upper = model_.upper_limits()[i];
-      const double k = solver_parameters_.nullspace_rate_change_limit;
-      if (solver_parameters_.limit_speeds) v = std::clamp(v, -model_.max_speeds()[i], model_.max_speeds()[i]);
+      const double vmax = model_.max_speeds()[i], k = solver_parameters_.nullspace_rate_change_limit;
+      if (solver_parameters_.limit_speeds) v = std::clamp(v, -vmax, vmax);
       if (k > 0.0) {
-        if (!command.free_dofs[i]) {
-          const double step = k * model_.max_speeds()[i] * dt;
-          v = std::clamp(v, qdot_[i] - step, qdot_[i] + step);
-        }
-        const double braked =
-            internal::braked_rate(v, internal::distance_ahead(v, q_[i], lower, upper), k * model_.max_speeds()[i], dt);
+        if (!command.free_dofs[i]) v = std::clamp(v, qdot_[i] - k * vmax * dt, qdot_[i] + k * vmax * dt);
+        const double braked = internal::braked_rate(v, internal::distance_ahead(v, q_[i], lower, upper), k * vmax, dt);
         if (std::abs(braked) < std::abs(v)) status.flags |= kDofBraked;
         v = braked;
       }
@@ -214,8 +210,9 @@ ControllerStatus Controller::update(const Command& command, double dt) {
     for (int i = 0; i < model_.num_dofs(); ++i) {
       double v = (*qdot)[i];
       const double step = rate_limit * vmax[i] * dt;
-      // The rate realised last cycle (without external velocities), within the speed limit:
-      // over a tiny dt its rounding can put it an ulp / dt beyond.
+      // The rate realised last cycle less this cycle's external velocity (so that the whole
+      // rate changes by at most step), within the speed limit: over a tiny dt its rounding
+      // can put it an ulp / dt beyond.
       const double realised = qdot_[i] - external_[i];
       const double from = solver_parameters_.limit_speeds ? std::clamp(realised, -vmax[i], vmax[i]) : realised;
       if (std::abs(v - from) > step && command.free_dofs[i]) {

@@ -316,8 +316,9 @@ void random_controller_run(const wbm_test::ShippedModel& entry, unsigned seed, i
       const double d = v > 0.0 ? model.dof(i).upper - q_before[i] : q_before[i] - model.dof(i).lower;
       ASSERT_LE(std::abs(v), std::sqrt(20.0 * model.dof(i).max_speed * std::max(d, 0.0)) * (1 + 1e-9) + rounding)
           << model.dof(i).name << " cycle " << k << " dt " << dt << " rate " << v << " limit " << d << " away";
-      // A free dof's rate changes by at most k v_max dt per cycle (the Controller's bound),
-      // but in a cycle that failed (q_dot 0 at once). Braking after the bound may cut more
+      // A free dof's rate, or a frozen one's driven by an external velocity, changes by at
+      // most k v_max dt per cycle (the Controller's bound), but in a cycle that failed (q_dot
+      // 0 at once). Braking after the bound may cut more
       // where dt varies (the jittered runs); the extreme dts are left out.
       if ((cmd.free_dofs[i] || driven) && st.ok() && commands != Commands::kExtreme &&
           !(commands == Commands::kJitter && st.has(kDofBraked))) {
