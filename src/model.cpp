@@ -270,6 +270,13 @@ Model ModelBuilder::build() {
     }
     m.offset_without_rotation_[b] = body.X_PJ.R == Matrix3::Identity();
   }
+  {
+    std::vector<int> depth(nb, 0);
+    for (int b = 0; b < nb; ++b) depth[b] = m.bodies_[b].parent < 0 ? 0 : depth[m.bodies_[b].parent] + 1;
+    m.depth_order_.resize(nb);
+    for (int b = 0; b < nb; ++b) m.depth_order_[b] = b;
+    std::stable_sort(m.depth_order_.begin(), m.depth_order_.end(), [&](int a, int b) { return depth[a] < depth[b]; });
+  }
   m.chain_offset_.assign(nb + 1, 0);
   m.chain_bodies_.clear();
   for (int b = 0; b < nb; ++b) {

@@ -221,6 +221,32 @@ TEST_P(Kinematics, MovingBodiesAreTheChainToTheRoot) {
   }
 }
 
+// Forward kinematics visits the bodies in depth_order(): every body once, each after its
+// parent, the depths never falling, bodies of one depth in index order (so neighbours in
+// the loop are mostly on different branches and their pose products can overlap).
+TEST_P(Kinematics, DepthOrderVisitsEveryBodyOnceAfterItsParent) {
+  const ShippedModel& entry = GetParam();
+  const Model model = entry.load();
+  const std::vector<int>& order = model.depth_order();
+  ASSERT_EQ(static_cast<int>(order.size()), model.num_bodies()) << entry.id;
+  std::vector<int> position(model.num_bodies(), -1), depth(model.num_bodies(), 0);
+  for (int b = 0; b < model.num_bodies(); ++b)
+    depth[b] = model.body(b).parent < 0 ? 0 : depth[model.body(b).parent] + 1;
+  for (int i = 0; i < static_cast<int>(order.size()); ++i) {
+    const int b = order[i];
+    ASSERT_TRUE(b >= 0 && b < model.num_bodies() && position[b] < 0) << entry.id << " entry " << i;
+    position[b] = i;
+    const int parent = model.body(b).parent;
+    if (parent >= 0) {
+      EXPECT_LT(position[parent], i) << entry.id << " body " << model.body(b).name;
+    }
+    if (i > 0) {
+      const int a = order[i - 1];
+      EXPECT_TRUE(depth[a] < depth[b] || (depth[a] == depth[b] && a < b)) << entry.id << " entries " << i - 1 << ", " << i;
+    }
+  }
+}
+
 TEST_P(Kinematics, MimicModelsShareDofs) {
   const ShippedModel& entry = GetParam();
   if (!entry.has_mimic.has_value())

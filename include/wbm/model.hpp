@@ -122,6 +122,9 @@ class Model {
   const std::vector<int>& axis_codes() const { return axis_code_; }
   /// True where a body's joint offset X_PJ has no rotation.
   const std::vector<char>& offset_without_rotation() const { return offset_without_rotation_; }
+  /// The bodies ordered by their depth in the tree (root first, parents before children,
+  /// bodies of equal depth in index order).
+  const std::vector<int>& depth_order() const { return depth_order_; }
   /// The bodies with a dof on the path from the root to `body`, `body` first (if it has a
   /// dof) and the root's side last: the joints that move it, i.e. the possibly non-zero
   /// columns of its Jacobians. Precomputed, so the Jacobians walk an array instead of
@@ -151,6 +154,7 @@ class Model {
   std::vector<double> subtree_mass_;
   std::vector<int> axis_code_;
   std::vector<char> offset_without_rotation_;
+  std::vector<int> depth_order_;
   std::vector<int> chain_offset_, chain_bodies_;  // moving_bodies(b) = chain_bodies_[offset[b], offset[b + 1])
   Eigen::VectorXd home_, lower_, upper_, max_speed_;
 };
