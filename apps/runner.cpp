@@ -328,7 +328,9 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
       for (int d : r.release) cmd.free_dofs[d] = true;
       if (s.events[next_event].balance >= 0) {
         balance_on = s.events[next_event].balance == 1;
-        if (!balance_on) balance->disable(cmd);
+        // Switching off a balance that was never built (no balance section, never switched
+        // on) changes nothing.
+        if (!balance_on && balance) balance->disable(cmd);
       }
       ++next_event;
     }

@@ -143,6 +143,20 @@ TEST(Balance, CompensationKeepsTrackingAsAccurateAsWithoutBalance) {
   EXPECT_GT(std::abs(with->q.back()[ub_x] - with->q.front()[ub_x]), 0.01);  // the upper body did shift
 }
 
+// A timeline that switches balance off in a scenario without a balance section (the
+// module was never built) crashed the runner; it changes nothing now.
+TEST(Balance, SwitchingOffABalanceThatWasNeverOnChangesNothing) {
+  const std::string head =
+      "name: b\nrobot: {builtin: paper}\nduration: 1\nfrozen: [heel_x, heel_y, heel_yaw]\n"
+      "tasks: [{name: l, type: position, frame: l_hand_ref}]\n"
+      "timeline:\n  - {t: 0.1, activate: [l], relative_targets: {l: [0.1, 0, 0.1]}}\n";
+  const auto plain = run_scenario(parse_scenario(head, "b.yaml", "."));
+  const auto switched = run_scenario(parse_scenario(head + "  - {t: 0.5, balance: false}\n", "b.yaml", "."));
+  ASSERT_EQ(plain->num_cycles(), switched->num_cycles());
+  EXPECT_TRUE(switched->balance.empty());
+  for (int k = 0; k < plain->num_cycles(); ++k) ASSERT_EQ(plain->q[k], switched->q[k]) << "cycle " << k;
+}
+
 TEST(Balance, UrdfModelWithFeetMeasuredFromItsAnkles) {
   const auto run = run_scenario(shipped("g1_reach_with_balance"));
   // G1's ankle roll links are about 0.24 m apart: the support polygon uses that spacing.
