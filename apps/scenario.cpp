@@ -250,7 +250,8 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
     s.walking.line = r.line(walking);
     r.only(walking, "walking", {"enabled", "trigger_on_joint_limit", "cost_threshold", "stall_time", "error_tolerance",
                                 "max_step_length", "max_step_width", "min_step_width", "max_step_turn", "step_duration",
-                                "converged_speed", "converge_time", "feet_tolerance", "max_steps", "max_walks"});
+                                "converged_speed", "converge_time", "feet_tolerance", "max_steps", "max_walks",
+                                "heel_stop_time"});
     if (walking["enabled"]) s.walking.enabled = r.boolean(walking["enabled"], "walking.enabled");
     if (s.walking.enabled) no_fixed_base(walking["enabled"], "walking.enabled", "walking");
     if (walking["trigger_on_joint_limit"]) w.trigger_on_joint_limit = r.boolean(walking["trigger_on_joint_limit"], "walking.trigger_on_joint_limit");
@@ -258,7 +259,8 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
         {"cost_threshold", &w.cost_threshold}, {"stall_time", &w.stall_time}, {"error_tolerance", &w.error_tolerance},
         {"max_step_length", &w.max_step_length}, {"max_step_width", &w.max_step_width},
         {"min_step_width", &w.min_step_width}, {"max_step_turn", &w.max_step_turn}, {"step_duration", &w.step_duration},
-        {"converged_speed", &w.converged_speed}, {"converge_time", &w.converge_time}, {"feet_tolerance", &w.feet_tolerance}};
+        {"converged_speed", &w.converged_speed}, {"converge_time", &w.converge_time}, {"feet_tolerance", &w.feet_tolerance},
+        {"heel_stop_time", &w.heel_stop_time}};
     for (const auto& [key, slot] : numbers)
       if (walking[key]) *slot = r.number(walking[key], std::string("walking.") + key);
     s.walking.min_width_given = static_cast<bool>(walking["min_step_width"]);

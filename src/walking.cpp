@@ -37,6 +37,9 @@ WalkingModule::WalkingModule(const Model& model, const FootGeometry& feet, const
         << "never reach their places beside the heel; widen the step widths to include the spacing";
     throw ConfigError(msg.str());
   }
+  if (!std::isfinite(p.heel_stop_time)) throw ConfigError("walking: heel_stop_time must be finite");
+  for (int k = 0; k < 3; ++k)
+    heel_deceleration_[k] = p.heel_stop_time > 0.0 ? model.max_speeds()[heel_dofs_[k]] / p.heel_stop_time : 0.0;
   const Vector2 heel(model.home()[v.heel_x], model.home()[v.heel_y]);
   left_ = stance_target(true, heel, model.home()[v.heel_yaw]);
   right_ = stance_target(false, heel, model.home()[v.heel_yaw]);
@@ -91,6 +94,31 @@ FootPose WalkingModule::limited_step(bool left, const FootPose& support, const F
 
 std::uint32_t WalkingModule::update(const Controller& c, const ControllerStatus& last, double time, double dt,
                                     Command& command) {
+  const bool was_free = heel_free_;
+  const std::uint32_t flags = step(c, last, time, dt, command);
+  heel_free_ = command.free_dofs[heel_dofs_[0]];
+  brake_heel(c, was_free, dt, command);
+  return flags;
+}
+
+void WalkingModule::brake_heel(const Controller& c, bool was_free, double dt, Command& command) {
+  const bool external = command.external_velocity.size() == num_dofs_;
+  for (int k = 0; k < 3; ++k) {
+    const int d = heel_dofs_[k];
+    if (heel_free_ || !external || heel_deceleration_[k] == 0.0) {
+      heel_brake_[k] = 0.0;
+    } else {
+      // Frozen this cycle while it moved: from the rate it had; then towards zero.
+      if (was_free) heel_brake_[k] = c.qdot()[d];
+      const double v = heel_brake_[k], fall = heel_deceleration_[k] * dt;
+      heel_brake_[k] = std::abs(v) <= fall ? 0.0 : v - std::copysign(fall, v);
+    }
+    if (external) command.external_velocity[d] = heel_brake_[k];
+  }
+}
+
+std::uint32_t WalkingModule::step(const Controller& c, const ControllerStatus& last, double time, double dt,
+                                  Command& command) {
   std::uint32_t flags = kWalkStanding;
   const Eigen::VectorXd& q = c.q();
   const Vector2 heel(q[heel_dofs_[0]], q[heel_dofs_[1]]);

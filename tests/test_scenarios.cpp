@@ -264,6 +264,38 @@ TEST(Walking, UnreachableTargetDoesNotStepForever) {
   }
 }
 
+// A walk that ends while the heel still moves: a target 300 m ahead, which the heel at its
+// speed limit (0.5 m/s) approaches by less than 1 % per stall_time, so the walk stalls at
+// full speed. The heel then brakes to rest at v_max / heel_stop_time; with heel_stop_time
+// 0 it stops within a cycle (found by random scenarios: 0.5 m/s to 0 in 2 ms).
+TEST(Walking, AWalkEndingWhileTheHeelMovesBrakesTheHeel) {
+  Scenario s = shipped("walk_object_ahead");
+  s.duration = 12.0;
+  s.events[0].targets[0].second = Eigen::Vector3d(300.0, 0.0, 1.0);
+  for (const double stop_time : {0.25, 0.0}) {
+    s.walking.parameters.heel_stop_time = stop_time;
+    const auto run = run_scenario(s);
+    const int heel_x = run->model->virtual_dofs().heel_x;
+    const double v_max = run->model->max_speeds()[heel_x];
+    std::vector<double> v;
+    for (int k = 1; k < run->num_cycles(); ++k) v.push_back((run->q[k][heel_x] - run->q[k - 1][heel_x]) / s.dt);
+    double fastest = 0.0, largest_fall = 0.0;
+    for (size_t k = 1; k < v.size(); ++k) {
+      fastest = std::max(fastest, v[k]);
+      largest_fall = std::max(largest_fall, v[k - 1] - v[k]);
+    }
+    EXPECT_GT(fastest, 0.99 * v_max) << "the heel walked at its speed limit";
+    EXPECT_EQ(v.back(), 0.0) << "the heel at rest at the end";
+    std::cout << "heel_stop_time " << stop_time << " s: " << walks(*run) << " walks, fastest " << fastest
+              << " m/s, largest fall " << largest_fall << " m/s in a cycle\n";
+    if (stop_time > 0.0) {
+      EXPECT_LE(largest_fall, v_max / stop_time * s.dt * (1.0 + 1e-9)) << "braked at v_max / heel_stop_time";
+    } else {
+      EXPECT_GT(largest_fall, 0.9 * v_max) << "stops within a cycle";
+    }
+  }
+}
+
 // Step widths and feet: the feet stand `spacing` apart beside the heel, so a step width
 // range without the spacing never lets a walk end (NAO's feet are 0.10 m apart, H1's
 // 0.41 m, the defaults allow 0.14-0.30 m: both stepped in place until the end). The library

@@ -34,6 +34,12 @@ struct WalkingParameters {
   double feet_tolerance = 0.02;     ///< [m]; angles: feet_tolerance [rad] * 2
   int max_steps = 60;               ///< per walk: no endless stepping
   int max_walks = 3;                ///< walks per target without progress before giving up
+  /// [s] A walk that ends while the heel still moves (stalled, or max_steps) freezes the heel
+  /// dofs in b_C and brakes them to rest through the command's external velocity, each at
+  /// v_max / heel_stop_time (the heel's speed limits: at most this long from full speed),
+  /// instead of stopping them within a cycle (0.5 m/s to 0 in 2 ms: 250 m/s^2). <= 0, or a
+  /// command without external velocities: the heel stops at once.
+  double heel_stop_time = 0.25;
   /// A walk whose task error has not fallen by 1 % for stall_time stops: the heel is frozen
   /// where it is and the feet finish their steps to it. A walk that did not reduce the
   /// error to below 90 % of its value at the trigger counts as a walk without progress.
@@ -60,7 +66,8 @@ class WalkingModule {
   WalkingModule(const Model& model, const FootGeometry& feet, const WalkingParameters& parameters = {});
 
   /// Call once per cycle before Controller::update with the status of the previous cycle.
-  /// Writes b_C of the heel dofs. `time` is the simulation time [s].
+  /// Writes b_C of the heel dofs and, where the command has external velocities, theirs
+  /// (zero, or the braking of a heel frozen while it moved). `time` is the simulation time [s].
   std::uint32_t update(const Controller& controller, const ControllerStatus& last, double time, double dt,
                        Command& command);
   /// The command's targets changed: walking may be triggered again.
@@ -86,11 +93,20 @@ class WalkingModule {
   FootPose stance_target(bool left, const Vector2& heel, double yaw) const;
   FootPose limited_step(bool left, const FootPose& support, const FootPose& target) const;
   void set_heel_free(Command& command, bool free) const;
+  /// The walk's decisions for this cycle (update() without the heel's braking).
+  std::uint32_t step(const Controller& controller, const ControllerStatus& last, double time, double dt,
+                     Command& command);
+  /// External velocities of the heel dofs: zero while they are free; where they were frozen
+  /// this cycle while moving, their last rates, falling to zero at v_max / heel_stop_time.
+  void brake_heel(const Controller& controller, bool was_free, double dt, Command& command);
   bool feet_at(const Vector2& heel, double yaw) const;
 
   FootGeometry feet_;
   WalkingParameters p_;
   int heel_dofs_[3];
+  double heel_deceleration_[3] = {0.0, 0.0, 0.0};  // v_max / heel_stop_time [m/s^2, rad/s^2]
+  double heel_brake_[3] = {0.0, 0.0, 0.0};         // the frozen heel's external rates while braking
+  bool heel_free_ = false;                          // b_C of the heel in the last command
   int num_dofs_ = 0;
   bool walking_ = false;
   bool finishing_ = false;  // heel frozen again, feet still stepping to it
