@@ -21,6 +21,8 @@ cycle recorded) must:
   dof at once; summary.json's max_joint_acceleration_to_bound);
 - report no invalid input, command or target, and no joint clamped at a limit where k > 0
   (the braking lands on limits);
+- not move a dof frozen in b_C (from the start, or by the timeline until released) that
+  nothing drives (the balance module drives the upper body's x and y);
 - write only finite numbers to trajectory.csv.
 
 Prints one line per run and exits 1 if any run breaks a promise, naming the scenario file
@@ -95,8 +97,14 @@ class Generator:
                  f"singular_threshold: {r.choice([0.01, 0.04, 0.1])}, max_damping: {r.choice([0.01, 0.04, 0.2])}, "
                  f"jerk_limit: {jerk}, limit_speeds: {str(limit_speeds).lower()}}}",
                  f"criterion: {{type: {r.choice(['cubic', 'squared'])}}}"]
+        # Dofs held by b_C and driven by nothing: dof -> [start, end) times; they must not move.
+        virtual = [d for d in dofs if d.startswith(("heel_", "upper_body_"))]
+        held_since = {d: 0.0 for d in virtual} if fixed else {}
         if not fixed:
             lines.append("frozen: []" if walking else "frozen: [heel_x, heel_y, heel_yaw]")
+            if not walking:
+                held_since.update({d: 0.0 for d in ("heel_x", "heel_y", "heel_yaw")})
+        held = []
         if balance or walking:
             lines.append(f"feet: {{length: 0.15, width: 0.07, left_frame: {left_foot}, right_frame: {right_foot}}}")
         if balance:
@@ -182,16 +190,23 @@ class Generator:
                 parts.append(f"freeze: [{', '.join(chosen)}]")
                 stopped |= set(chosen)
                 frozen |= set(chosen)
+                for d in chosen:
+                    held_since.setdefault(d, t)
             if frozen and r.random() < 0.3:
                 released = r.choice(sorted(frozen))
                 parts.append(f"release: [{released}]")
                 frozen.discard(released)
+                if released in held_since:
+                    held.append((released, held_since.pop(released), t))
             if feet and r.random() < 0.2:
                 parts.append(f"balance: {str(r.random() < 0.5).lower()}")
                 stopped |= {"upper_body_x", "upper_body_y"}
             lines.append("  - {" + ", ".join(parts) + "}")
+        held += [(d, since, DURATION) for d, since in held_since.items()]
+        if balance or "upper_body_x" in stopped:  # the balance module drives them while frozen
+            held = [h for h in held if h[0] not in ("upper_body_x", "upper_body_y")]
         return "\n".join(lines) + "\n", {"robot": robot_id, "jerk": jerk, "limit_speeds": limit_speeds,
-                                         "stopped": stopped}
+                                         "stopped": stopped, "held": held, "dt": dt}
 
 
 def broken_promises(directory, info):
@@ -217,11 +232,21 @@ def broken_promises(directory, info):
     trajectory = os.path.join(directory, "trajectory.csv")
     with open(trajectory, encoding="utf-8") as f:
         rows = csv.reader(f)
-        next(rows)
+        header = next(rows)
+        held = [(header.index("q." + d), d, since, until) for d, since, until in info["held"]]
+        first = {}  # column -> its value when the hold began
         for number, row in enumerate(rows, start=2):
             if not all(math.isfinite(float(x)) for x in row):
                 problems.append(f"trajectory.csv line {number}: a number that is not finite")
                 break
+            time = float(row[0])
+            for column, dof, since, until in held:
+                if since + 2 * info["dt"] <= time < until - info["dt"]:
+                    value = float(row[column])
+                    if first.setdefault((column, since), value) != value:
+                        problems.append(f"{dof}, frozen at {since} s, moved by {value - first[(column, since)]:.3g} "
+                                        f"at {time} s")
+                        held = [h for h in held if h[0] != column]
     return problems
 
 
