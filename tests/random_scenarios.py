@@ -5,7 +5,8 @@
 
 Each seed writes one valid scenario file on a shipped robot (tests/out_of_reach_probe.py's
 seven; with --random-robots a seeded variant from tests/random_robot.py instead, for those
-it has): random task elements (hand positions, in the world or relative to the heel, grasp
+it has): random start poses within the limits, random task elements (hand positions, in
+the world or relative to the heel or the other hand, grasp
 axes about x, y or z, hand attitudes, the view axis, the centre of mass, joint rows), random
 filters (bandwidth 0.5-20 1/s, speed limits, orders 2-6), gains (0 to 500), solver settings
 (jerk limit 0 to 100, speed limits on or off, thresholds, damping) and cycle times
@@ -47,14 +48,15 @@ DURATION = 6.0
 RANDOM_ROBOTS = ("g1_29", "h1", "atlas", "nao", "dual")
 
 
-def dof_names(wbm, urdf, options):
-    """The model's dof names from `wbm model info` (the robot options as in the scenario)."""
+def dof_limits(wbm, urdf, options):
+    """{dof name: (lower, upper)} from `wbm model info` (the robot options as in the scenario;
+    a fixed base has the same dofs, its virtual ones stay frozen)."""
     args = [wbm, "model", "info", urdf]
     if "legs:" in options:
         args += ["--legs", options.split("[")[1].split("]")[0].replace(" ", "")]
-    # (a fixed base has the same dofs: its virtual ones stay frozen)
     run = subprocess.run(args, capture_output=True, text=True, check=True)
-    return [p[1] for p in (line.split() for line in run.stdout.splitlines()) if len(p) >= 3 and p[0].isdigit()]
+    return {p[1]: (float(p[4]), float(p[5])) for p in (line.split() for line in run.stdout.splitlines())
+            if len(p) >= 6 and p[0].isdigit()}
 
 
 class Generator:
@@ -76,14 +78,15 @@ class Generator:
                                 str(variant), random_path], check=True)
             path = random_path
         if robot_id not in self.dofs:
-            self.dofs[robot_id] = dof_names(self.wbm, path, options)
+            self.dofs[robot_id] = dof_limits(self.wbm, path, options)
         return robot_id, path, options, left, right, left_foot, right_foot, head
 
     def scenario(self, seed):
         """(scenario text, what the checks need to know)."""
         r = random.Random(seed)
         robot_id, path, options, left, right, left_foot, right_foot, head = self.robot(r)
-        dofs = self.dofs[robot_id]
+        limits = self.dofs[robot_id]
+        dofs = list(limits)
         fixed = "fixed_base" in options
         feet = left_foot is not None
         jerk = r.choice([0, 5, 20, 20, 100])
@@ -113,6 +116,14 @@ class Generator:
         if walking:
             lines.append("walking: {enabled: true}")
 
+        joints = [d for d in dofs if not d.startswith(("heel_", "upper_body_"))]
+        if joints and r.random() < 0.3:  # a start away from the home pose, within the limits
+            start = {}
+            for d in r.sample(joints, min(len(joints), r.randint(1, 3))):
+                lower, upper = (max(x, -3.0) if i == 0 else min(x, 3.0) for i, x in enumerate(limits[d]))
+                start[d] = round(r.uniform(lower, upper), 4)
+            lines.append("initial: {" + ", ".join(f"{d}: {v}" for d, v in start.items()) + "}")
+
         def filter_text():
             return (f"filter: {{bandwidth: {round(r.uniform(0.5, 20), 2)}, max_speed: {round(r.uniform(0.05, 2), 2)}, "
                     f"order: {r.randint(2, 6)}}}")
@@ -121,7 +132,8 @@ class Generator:
         lines.append("tasks:")
         for side, frame in (("l", left), ("r", right)):
             if r.random() < 0.8:
-                reference = ", reference: heel" if r.random() < 0.3 and not fixed else ""
+                other = right if frame == left else left
+                reference = r.choice(["", "", "", f", reference: {other}"] + ([] if fixed else [", reference: heel"]))
                 lines.append(f"  - {{name: {side}, type: position, frame: {frame}{reference}, "
                              f"gain: {r.choice([0, 1, 10, 50, 500])}, {filter_text()}}}")
                 elements.append((side, "position", 3))
@@ -138,7 +150,6 @@ class Generator:
         if r.random() < 0.3:
             lines.append(f"  - {{name: c, type: com, {filter_text()}}}")
             elements.append(("c", "com", 3))
-        joints = [d for d in dofs if not d.startswith(("heel_", "upper_body_"))]
         if joints and r.random() < 0.4:
             chosen = r.sample(joints, min(len(joints), r.randint(1, 4)))
             lines.append(f"  - {{name: j, type: joints, dofs: [{', '.join(chosen)}], {filter_text()}}}")
