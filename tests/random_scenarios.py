@@ -3,16 +3,16 @@
 
   python3 tests/random_scenarios.py [WBM [OUT_DIR]] [--seeds A:B] [--random-robots] [--keep]
 
-Each seed writes one valid scenario file on a shipped robot (tests/out_of_reach_probe.py's
-seven; with --random-robots a seeded variant from tests/random_robot.py instead, for those
-it has): random start poses within the limits, random task elements (hand positions, in
-the world or relative to the heel or the other hand, grasp
-axes about x, y or z, hand attitudes, the view axis, the centre of mass, joint rows), random
-filters (bandwidth 0.5-20 1/s, speed limits, orders 2-6), gains (0 to 500), solver settings
-(jerk limit 0 to 100, speed limits on or off, thresholds, damping) and cycle times
-(0.5-10 ms), and a timeline of one to eight events switching elements and single rows on
-and off, moving targets by up to 1 km, turning axis targets, freezing and releasing dofs,
-switching balance; balance and walking on from the start on some. Each run (6 s, every
+Each seed writes one valid scenario file on the built-in paper model or a shipped robot
+(tests/out_of_reach_probe.py's seven; with --random-robots a seeded variant from
+tests/random_robot.py instead, for those it has): random start poses within the limits,
+random task elements (hand positions, in the world or relative to the heel or the other
+hand, grasp axes about x, y or z, hand attitudes, the view axis, the centre of mass, joint
+rows), random filters (bandwidth 0.5-20 1/s, speed limits, orders 2-6), gains (0 to 500),
+solver settings (jerk limit 0 to 100, speed limits on or off, thresholds, damping) and
+cycle times (0.5-10 ms), and a timeline of one to eight events switching elements and
+single rows on and off, moving targets by up to 1 km, turning axis targets, freezing and
+releasing dofs, switching balance; balance and walking on from the start on some. Each run (6 s, every
 cycle recorded) must:
 
 - exit 0 (the generator writes only valid files);
@@ -51,7 +51,7 @@ RANDOM_ROBOTS = ("g1_29", "h1", "atlas", "nao", "dual")
 def dof_limits(wbm, urdf, options):
     """{dof name: (lower, upper)} from `wbm model info` (the robot options as in the scenario;
     a fixed base has the same dofs, its virtual ones stay frozen)."""
-    args = [wbm, "model", "info", urdf]
+    args = [wbm, "model", "info"] + ([urdf] if urdf else [])
     if "legs:" in options:
         args += ["--legs", options.split("[")[1].split("]")[0].replace(" ", "")]
     run = subprocess.run(args, capture_output=True, text=True, check=True)
@@ -65,7 +65,11 @@ class Generator:
         self.dofs = {}
 
     def robot(self, r):
-        robot_id = r.choice(list(probe.ROBOTS))
+        robot_id = r.choice(list(probe.ROBOTS) + ["paper"])
+        if robot_id == "paper":  # the built-in model: its default feet (no foot frames)
+            if robot_id not in self.dofs:
+                self.dofs[robot_id] = dof_limits(self.wbm, None, "")
+            return robot_id, None, "", "l_hand_ref", "r_hand_ref", "", "", "head_camera"
         urdf, options, left, right, left_foot, right_foot = probe.ROBOTS[robot_id]
         path = os.path.join(probe.MODELS, urdf)
         head = probe.HEADS[robot_id]
@@ -94,7 +98,7 @@ class Generator:
         walking = feet and r.random() < 0.3
         balance = feet and r.random() < 0.5
         dt = r.choice([0.001, 0.002, 0.004, 0.005, round(r.uniform(0.0005, 0.01), 5)])
-        lines = [f"name: random_{seed}", f"robot: {{urdf: '{path}', {options}}}", f"dt: {dt}",
+        lines = [f"name: random_{seed}", (f"robot: {{urdf: '{path}', {options}}}" if path else "robot: {builtin: paper}"), f"dt: {dt}",
                  f"duration: {DURATION}", "record_every: 1",
                  f"solver: {{nullspace_gain: {r.choice([0, 0.1, 0.5, 2])}, "
                  f"singular_threshold: {r.choice([0.01, 0.04, 0.1])}, max_damping: {r.choice([0.01, 0.04, 0.2])}, "
@@ -108,7 +112,7 @@ class Generator:
             if not walking:
                 held_since.update({d: 0.0 for d in ("heel_x", "heel_y", "heel_yaw")})
         held = []
-        if balance or walking:
+        if (balance or walking) and left_foot:
             lines.append(f"feet: {{length: 0.15, width: 0.07, left_frame: {left_foot}, right_frame: {right_foot}}}")
         if balance:
             lines.append(f"balance: {{enabled: true, compensate: {str(r.random() < 0.7).lower()}, "
