@@ -12,8 +12,8 @@ rows), random filters (bandwidth 0.5-20 1/s, speed limits, orders 2-6), gains (0
 solver settings (jerk limit 0 to 100, speed limits on or off, thresholds, damping) and
 cycle times (0.5-10 ms), and a timeline of one to eight events switching elements and
 single rows on and off, moving targets by up to 1 km, turning axis targets, freezing and
-releasing dofs, switching balance; balance and walking on from the start on some. Each run (6 s, every
-cycle recorded) must:
+releasing dofs, switching balance; balance and walking on from the start on some. Each run
+(6 s, every cycle recorded) must:
 
 - exit 0 (the generator writes only valid files);
 - keep every joint within its position limits, and, with speed limits on, its speed limit;
