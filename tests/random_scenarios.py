@@ -98,7 +98,8 @@ class Generator:
         walking = feet and r.random() < 0.3
         balance = feet and r.random() < 0.5
         dt = r.choice([0.001, 0.002, 0.004, 0.005, round(r.uniform(0.0005, 0.01), 5)])
-        lines = [f"name: random_{seed}", (f"robot: {{urdf: '{path}', {options}}}" if path else "robot: {builtin: paper}"), f"dt: {dt}",
+        robot_line = f"robot: {{urdf: '{path}', {options}}}" if path else "robot: {builtin: paper}"
+        lines = [f"name: random_{seed}", robot_line, f"dt: {dt}",
                  f"duration: {DURATION}", "record_every: 1",
                  f"solver: {{nullspace_gain: {r.choice([0, 0.1, 0.5, 2])}, "
                  f"singular_threshold: {r.choice([0.01, 0.04, 0.1])}, max_damping: {r.choice([0.01, 0.04, 0.2])}, "
