@@ -95,7 +95,7 @@ FootPose WalkingModule::limited_step(bool left, const FootPose& support, const F
 std::uint32_t WalkingModule::update(const Controller& c, const ControllerStatus& last, double time, double dt,
                                     Command& command) {
   const bool was_free = heel_free_;
-  const std::uint32_t flags = step(c, last, time, dt, command);
+  const std::uint32_t flags = update_walk(c, last, time, dt, command);
   heel_free_ = command.free_dofs[heel_dofs_[0]];
   brake_heel(c, was_free, dt, command);
   return flags;
@@ -117,8 +117,8 @@ void WalkingModule::brake_heel(const Controller& c, bool was_free, double dt, Co
   }
 }
 
-std::uint32_t WalkingModule::step(const Controller& c, const ControllerStatus& last, double time, double dt,
-                                  Command& command) {
+std::uint32_t WalkingModule::update_walk(const Controller& c, const ControllerStatus& last, double time, double dt,
+                                         Command& command) {
   std::uint32_t flags = kWalkStanding;
   const Eigen::VectorXd& q = c.q();
   const Vector2 heel(q[heel_dofs_[0]], q[heel_dofs_[1]]);

@@ -165,6 +165,7 @@ class Generator:
 
         row_names = {"position": "xyz", "com": "xyz", "axis": "01"}
         stopped = set()  # dofs the timeline freezes or balance drives: b_C stops them at once
+        balance_switched = False
         frozen = set()
         lines.append("timeline:")
         times = sorted({round(r.uniform(0.0, DURATION - 0.01), 3) for _ in range(r.randint(1, 8))})
@@ -217,9 +218,10 @@ class Generator:
             if feet and r.random() < 0.2:
                 parts.append(f"balance: {str(r.random() < 0.5).lower()}")
                 stopped |= {"upper_body_x", "upper_body_y"}
+                balance_switched = True
             lines.append("  - {" + ", ".join(parts) + "}")
         held += [(d, since, DURATION) for d, since in held_since.items()]
-        if balance or "upper_body_x" in stopped:  # the balance module drives them while frozen
+        if balance or balance_switched:  # the balance module drives them while frozen
             held = [h for h in held if h[0] not in ("upper_body_x", "upper_body_y")]
         return "\n".join(lines) + "\n", {"robot": robot_id, "jerk": jerk, "limit_speeds": limit_speeds,
                                          "stopped": stopped, "held": held, "dt": dt}

@@ -94,8 +94,8 @@ class WalkingModule {
   FootPose limited_step(bool left, const FootPose& support, const FootPose& target) const;
   void set_heel_free(Command& command, bool free) const;
   /// The walk's decisions for this cycle (update() without the heel's braking).
-  std::uint32_t step(const Controller& controller, const ControllerStatus& last, double time, double dt,
-                     Command& command);
+  std::uint32_t update_walk(const Controller& controller, const ControllerStatus& last, double time, double dt,
+                            Command& command);
   /// External velocities of the heel dofs: zero while they are free; where they were frozen
   /// this cycle while moving, their last rates, falling to zero at v_max / heel_stop_time.
   void brake_heel(const Controller& controller, bool was_free, double dt, Command& command);
