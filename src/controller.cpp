@@ -2,14 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
-#if defined(__SSE2__)
-#include <emmintrin.h>
-#endif
 
 #include "wbm/errors.hpp"
 
 #include "braking.hpp"
 #include "dot_kernels.hpp"
+#include "rate_checks.hpp"
 
 namespace wbm {
 
@@ -82,30 +80,6 @@ Command Controller::make_command() const {
   c.free_dofs = Mask::Constant(model_.num_dofs(), true);
   return c;
 }
-
-namespace {
-
-/// True if |v_i - (last_i - external_i)| > k_dt vmax_i for some i < n: a rate changed by more
-/// than the bound against the one realised last cycle. One pass without a branch per dof, two
-/// dofs per operation (the common case: none did).
-bool rate_change_exceeds(const double* v, const double* last, const double* external, const double* vmax,
-                         double k_dt, int n) {
-  int i = 0;
-  bool exceeded = false;
-#if defined(__SSE2__)
-  const __m128d k = _mm_set1_pd(k_dt), sign = _mm_set1_pd(-0.0);
-  __m128d any = _mm_setzero_pd();
-  for (; i + 1 < n; i += 2) {
-    const __m128d d = _mm_sub_pd(_mm_loadu_pd(v + i), _mm_sub_pd(_mm_loadu_pd(last + i), _mm_loadu_pd(external + i)));
-    any = _mm_or_pd(any, _mm_cmpgt_pd(_mm_andnot_pd(sign, d), _mm_mul_pd(k, _mm_loadu_pd(vmax + i))));
-  }
-  exceeded = _mm_movemask_pd(any) != 0;
-#endif
-  for (; i < n; ++i) exceeded = exceeded || std::abs(v[i] - (last[i] - external[i])) > k_dt * vmax[i];
-  return exceeded;
-}
-
-}  // namespace
 
 ControllerStatus Controller::update(const Command& command, double dt) {
   ControllerStatus status;
@@ -204,7 +178,7 @@ ControllerStatus Controller::update(const Command& command, double dt) {
   const Eigen::VectorXd* qdot = &solver_->output().qdot;
   const double rate_limit = solver_parameters_.nullspace_rate_change_limit;
   if (!external) external_.setZero();
-  if (rate_limit > 0.0 && rate_change_exceeds(qdot->data(), qdot_.data(), external_.data(),
+  if (rate_limit > 0.0 && internal::rate_change_exceeds(qdot->data(), qdot_.data(), external_.data(),
                                               model_.max_speeds().data(), rate_limit * dt, model_.num_dofs())) {
     const Eigen::VectorXd& vmax = model_.max_speeds();
     for (int i = 0; i < model_.num_dofs(); ++i) {

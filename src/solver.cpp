@@ -7,6 +7,7 @@
 
 #include "braking.hpp"
 #include "dot_kernels.hpp"
+#include "rate_checks.hpp"
 #include "unit_row_elimination.hpp"
 
 namespace wbm {
@@ -487,7 +488,9 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
       return status;
     }
     bool changed = false;
-    if (q != nullptr && attempt < kMaxFreezeRounds) {
+    if (q != nullptr && attempt < kMaxFreezeRounds &&
+        internal::any_driven_outwards(q->data(), out_.qdot_task.data(), out_.qdot_null.data(),
+                                      model_.lower_limits().data(), model_.upper_limits().data(), n)) {
       for (int i = 0; i < n; ++i) {
         const double v = out_.qdot_task[i] + out_.qdot_null[i];
         const bool outwards = ((*q)[i] <= model_.lower_limits()[i] && v < 0.0) ||
@@ -526,10 +529,11 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
   const Eigen::VectorXd& vmax = model_.max_speeds();
   if (parameters_.limit_speeds) {
     double task_scale = 1.0;
-    for (int i = 0; i < n; ++i) {
-      const double v = std::abs(out_.qdot_task[i]);
-      if (v > vmax[i]) task_scale = std::min(task_scale, vmax[i] / v);
-    }
+    if (internal::any_exceeds(out_.qdot_task.data(), vmax.data(), n))
+      for (int i = 0; i < n; ++i) {
+        const double v = std::abs(out_.qdot_task[i]);
+        if (v > vmax[i]) task_scale = std::min(task_scale, vmax[i] / v);
+      }
     if (task_scale < 1.0) {
       status.flags |= kTaskSpeedLimited;
       out_.qdot_task *= task_scale;
@@ -541,8 +545,8 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
     // the task part crosses a speed limit, and out of reach, where the damped task part
     // grows as the null space moves the arm away from the singularity, it crosses it
     // again and again (a limit cycle at 15-20 Hz; docs/solver.md).
-    bool within = true;
-    for (int i = 0; i < n; ++i) within = within && std::abs(out_.qdot_task[i] + out_.qdot_null[i]) <= vmax[i];
+    const bool within =
+        !internal::any_combination_exceeds(1.0, out_.qdot_null.data(), out_.qdot_task.data(), 1.0, vmax.data(), n);
     double s = 1.0;
     if (!within) {
       for (int i = 0; i < n; ++i) {
@@ -560,10 +564,9 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
     // dofs. s itself satisfies it in the common case, checked first without divisions.
     const double k_dt = parameters_.nullspace_rate_change_limit * dt;
     const double scale = out_.nullspace_scale;
-    bool feasible = true;
-    for (int i = 0; i < n; ++i)
-      feasible = feasible && std::abs(scale * out_.qdot_null[i] - previous_null_[i]) <= k_dt * vmax[i];
-    if (!feasible) {
+    // |-scale qdot_null + previous| is |scale qdot_null - previous| exactly.
+    if (internal::any_combination_exceeds(-scale, out_.qdot_null.data(), previous_null_.data(), k_dt, vmax.data(),
+                                          n)) {
       double lo = 0.0, hi = scale;
       double num = 0.0, den = 0.0;
       for (int i = 0; i < n; ++i) {
@@ -607,12 +610,7 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
     // Close: where the dof would be after this cycle's step, or after its braking distance
     // v |v| / (k v_max) at the rate it has, lies beyond a limit.
     const double* braking_time_per_rate = braking_time_per_rate_.data();  // 1 / (k v_max)
-    bool close = false;
-    for (int i = 0; i < n; ++i) {
-      const double v = qdot[i];
-      const double reach = position[i] + v * std::max(dt, std::abs(v) * braking_time_per_rate[i]);
-      close |= (reach > upper[i]) | (reach < lower[i]);
-    }
+    const bool close = internal::any_close_to_a_limit(position, qdot, braking_time_per_rate, dt, lower, upper, n);
     for (int i = 0; close && i < n; ++i) {
       const double v = qdot[i];
       const double rate = internal::braked_rate(v, internal::distance_ahead(v, position[i], lower[i], upper[i]),
