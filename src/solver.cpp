@@ -335,7 +335,6 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
   g_ = w_.cwiseProduct(gradient);
   if (m == 0) {
     flags |= kNoActiveRows;
-    out_.qdot_task.setZero();
     out_.qdot_null = -parameters_.nullspace_gain * g_;
     out_.min_singular_value = std::numeric_limits<double>::infinity();
     return flags;
@@ -453,7 +452,9 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
   SolverStatus status;
   const int n = model_.num_dofs();
   const int m = static_cast<int>(J.rows());
-  // The rates are written on every path below (resolve() and the returns), not zeroed here.
+  out_.qdot.setZero();
+  out_.qdot_task.setZero();
+  out_.qdot_null.setZero();
   out_.min_singular_value = 0.0;
   out_.damping = 0.0;
   out_.nullspace_scale = 1.0;
@@ -463,9 +464,6 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
       !internal::all_finite(gradient.data(), n) ||
       (q != nullptr && q->size() != n)) {
     status.flags |= kInvalidInput;
-    out_.qdot.setZero();
-    out_.qdot_task.setZero();
-    out_.qdot_null.setZero();
     return status;
   }
   // A raised damping holds as long as the command is as fast as when it was raised: the
@@ -483,7 +481,6 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
     const std::uint32_t flags = resolve(J, xdot, gradient);
     if (flags & kAllDofsFrozen) {
       status.flags |= flags;
-      out_.qdot.setZero();
       out_.qdot_task.setZero();
       out_.qdot_null.setZero();
       previous_null_.setZero();
