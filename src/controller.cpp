@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "wbm/errors.hpp"
 
@@ -12,9 +13,16 @@
 namespace wbm {
 namespace {
 
-/// to[k] = from[k] for k < n: a target's few entries (1-4), without the setup of Eigen's
-/// dynamic-size copy (about 35 instructions each, three per element and cycle).
-void copy_entries(const double* from, int n, double* to) {
+/// to[k] = from[k] for k < n: a target's few entries, without the setup of Eigen's
+/// dynamic-size copy (about 35 instructions each, three per element and cycle); three
+/// entries (positions, directions) without a loop.
+void copy_entries(const double* __restrict__ from, int n, double* __restrict__ to) {
+  if (n == 3) {
+    to[0] = from[0];
+    to[1] = from[1];
+    to[2] = from[2];
+    return;
+  }
   for (int k = 0; k < n; ++k) to[k] = from[k];
 }
 
@@ -101,11 +109,15 @@ ControllerStatus Controller::update(const Command& command, double dt) {
     qdot_.setZero();
     return status;
   }
+  // Rows switched on or off since the last cycle? Mostly not: then every element is as
+  // active as it was and no row needs its filter reset (no per-row scans).
+  const bool rows_switched = std::memcmp(command.task_active.data(), was_row_active_.data(),
+                                         sizeof(bool) * static_cast<std::size_t>(stack_.num_rows())) != 0;
   stack_.activation() = command.task_active;
   for (int i = 0; i < stack_.num_elements(); ++i) {
     const TaskElement& e = stack_.element(i);
     const int t0 = stack_.target_offset(i), n = e.target_dim();
-    const bool active = stack_.element_active(i);
+    const bool active = rows_switched ? stack_.element_active(i) : bool(was_active_[i]);
     const auto target = command.targets.segment(t0, n);
     const bool valid = internal::all_finite(target.data(), n) &&
                        (e.target_kind() != TargetKind::kDirection || target.squaredNorm() > 1e-18);
@@ -117,7 +129,7 @@ ControllerStatus Controller::update(const Command& command, double dt) {
     const int r0 = stack_.row_offset(i);
     if (active && !was_active_[i]) {
       filters_[i].reset(values_.segment(t0, n), value_rates_.segment(t0, n));
-    } else if (active) {
+    } else if (active && rows_switched) {
       // Rows switched on in an element that was already partly active.
       for (int r = 0; r < e.dim(); ++r) {
         if (!stack_.activation()[r0 + r] || was_row_active_[r0 + r]) continue;
@@ -142,7 +154,7 @@ ControllerStatus Controller::update(const Command& command, double dt) {
     copy_entries(filters_[i].velocity().data(), n, stack_.target_rates().data() + t0);
     was_active_[i] = active;
   }
-  was_row_active_ = stack_.activation();
+  if (rows_switched) was_row_active_ = stack_.activation();
   const int m = stack_.assemble(model_, data_);
   // The external velocity as it will be realised: within the dof's speed limit (limit_speeds);
   // on a dof frozen in b_C (the balance module's upper-body shift) it is that dof's whole
