@@ -50,6 +50,31 @@ void transpose_products_portable(const double* Jwt, Eigen::Index ld, int m, int 
   }
 }
 
+void three_solves_portable(const double* L, Eigen::Index ld, const double* inv_d, int m, double* x0, double* x1,
+                           double* x2, double* X) {
+  double* const x[3] = {x0, x1, x2};
+  for (int i = 0; i < m; ++i)
+    for (int r = 0; r < 3; ++r) X[4 * i + r] = x[r][i];
+  // Forward, L z = b, by rows (inner products), then z / D, then backward, L^T x = y, by
+  // rows of L (x_k -= L_ik x_i for k < i).
+  for (int i = 1; i < m; ++i) {
+    const double* Li = L + i * ld;
+    double* Xi = X + 4 * i;
+    for (int k = 0; k < i; ++k)
+      for (int r = 0; r < 3; ++r) Xi[r] -= Li[k] * X[4 * k + r];
+  }
+  for (int i = 0; i < m; ++i)
+    for (int r = 0; r < 3; ++r) X[4 * i + r] *= inv_d[i];
+  for (int i = m - 1; i > 0; --i) {
+    const double* Li = L + i * ld;
+    const double* Xi = X + 4 * i;
+    for (int k = 0; k < i; ++k)
+      for (int r = 0; r < 3; ++r) X[4 * k + r] -= Li[k] * Xi[r];
+  }
+  for (int i = 0; i < m; ++i)
+    for (int r = 0; r < 3; ++r) x[r][i] = X[4 * i + r];
+}
+
 #if defined(__GNUC__) && defined(__x86_64__)
 
 namespace {
@@ -121,6 +146,61 @@ __attribute__((target("avx2,fma"))) void transpose_products_avx2_kernel(const do
   }
 }
 
+__attribute__((target("avx2,fma"))) inline void store4(double* p, Lanes4 v) { __builtin_memcpy(p, &v, sizeof v); }
+
+__attribute__((target("avx2,fma"))) void three_solves_avx2_kernel(const double* L, Eigen::Index ld,
+                                                                  const double* inv_d, int m, double* x0,
+                                                                  double* x1, double* x2, double* X) {
+  // Interleave four rows at a time: a 4 x 4 transpose of (x0, x1, x2, 0).
+  const Lanes4 zero = {0.0, 0.0, 0.0, 0.0};
+  int i0 = 0;
+  for (; i0 + 3 < m; i0 += 4) {
+    const Lanes4 a = load4(x0 + i0), b = load4(x1 + i0), c = load4(x2 + i0);
+    const Lanes4 t0 = __builtin_shufflevector(a, b, 0, 4, 2, 6), t1 = __builtin_shufflevector(a, b, 1, 5, 3, 7);
+    const Lanes4 t2 = __builtin_shufflevector(c, zero, 0, 4, 2, 6), t3 = __builtin_shufflevector(c, zero, 1, 5, 3, 7);
+    store4(X + 4 * i0, __builtin_shufflevector(t0, t2, 0, 1, 4, 5));
+    store4(X + 4 * i0 + 4, __builtin_shufflevector(t1, t3, 0, 1, 4, 5));
+    store4(X + 4 * i0 + 8, __builtin_shufflevector(t0, t2, 2, 3, 6, 7));
+    store4(X + 4 * i0 + 12, __builtin_shufflevector(t1, t3, 2, 3, 6, 7));
+  }
+  for (int i = i0; i < m; ++i) store4(X + 4 * i, Lanes4{x0[i], x1[i], x2[i], 0.0});
+  // One operation per entry of L for all three right-hand sides. Forward: two partial sums
+  // per row halve its dependency chain.
+  for (int i = 1; i < m; ++i) {
+    const double* Li = L + i * ld;
+    Lanes4 s = load4(X + 4 * i), t = {0.0, 0.0, 0.0, 0.0};
+    int k = 0;
+    for (; k + 1 < i; k += 2) {
+      s -= Li[k] * load4(X + 4 * k);
+      t -= Li[k + 1] * load4(X + 4 * k + 4);
+    }
+    if (k < i) s -= Li[k] * load4(X + 4 * k);
+    store4(X + 4 * i, s + t);
+  }
+  for (int i = 0; i < m; ++i) store4(X + 4 * i, load4(X + 4 * i) * inv_d[i]);
+  // Backward: the updates of one row of L are independent of each other.
+  for (int i = m - 1; i > 0; --i) {
+    const double* Li = L + i * ld;
+    const Lanes4 xi = load4(X + 4 * i);
+    for (int k = 0; k < i; ++k) store4(X + 4 * k, load4(X + 4 * k) - Li[k] * xi);
+  }
+  // And back (the inverse transpose).
+  for (int i = 0; i < i0; i += 4) {
+    const Lanes4 r0 = load4(X + 4 * i), r1 = load4(X + 4 * i + 4), r2 = load4(X + 4 * i + 8),
+                 r3 = load4(X + 4 * i + 12);
+    const Lanes4 t0 = __builtin_shufflevector(r0, r1, 0, 4, 2, 6), t1 = __builtin_shufflevector(r0, r1, 1, 5, 3, 7);
+    const Lanes4 t2 = __builtin_shufflevector(r2, r3, 0, 4, 2, 6), t3 = __builtin_shufflevector(r2, r3, 1, 5, 3, 7);
+    store4(x0 + i, __builtin_shufflevector(t0, t2, 0, 1, 4, 5));
+    store4(x1 + i, __builtin_shufflevector(t1, t3, 0, 1, 4, 5));
+    store4(x2 + i, __builtin_shufflevector(t0, t2, 2, 3, 6, 7));
+  }
+  for (int i = i0; i < m; ++i) {
+    x0[i] = X[4 * i];
+    x1[i] = X[4 * i + 1];
+    x2[i] = X[4 * i + 2];
+  }
+}
+
 bool cpu_has_avx2_fma() {
   __builtin_cpu_init();
   return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
@@ -136,12 +216,19 @@ TransposeProductsKernel select_transpose_products() {
 
 GramKernel select_weighted_gram() { return cpu_has_avx2_fma() ? &weighted_gram_avx2_kernel : &weighted_gram_portable; }
 
+ThreeSolvesKernel three_solves_avx2() { return &three_solves_avx2_kernel; }
+ThreeSolvesKernel select_three_solves() {
+  return cpu_has_avx2_fma() ? &three_solves_avx2_kernel : &three_solves_portable;
+}
+
 #else
 
 GramKernel weighted_gram_avx2() { return nullptr; }
 GramKernel select_weighted_gram() { return &weighted_gram_portable; }
 TransposeProductsKernel transpose_products_avx2() { return nullptr; }
 TransposeProductsKernel select_transpose_products() { return &transpose_products_portable; }
+ThreeSolvesKernel three_solves_avx2() { return nullptr; }
+ThreeSolvesKernel select_three_solves() { return &three_solves_portable; }
 
 #endif
 

@@ -28,6 +28,7 @@ void check(const SolverParameters& p) {
 WholeBodySolver::WholeBodySolver(const Model& model, int max_rows, const SolverParameters& parameters)
     : model_(model), parameters_(parameters), max_rows_(max_rows), gram_(internal::select_weighted_gram()),
       transpose_products_(internal::select_transpose_products()),
+      three_solves_(internal::select_three_solves()),
       elimination_(std::make_unique<internal::UnitRowElimination>(model.num_dofs(), std::max(max_rows, 1))) {
   check(parameters);
   if (max_rows < 0) throw ConfigError("solver: max_rows must be >= 0");
@@ -57,6 +58,7 @@ WholeBodySolver::WholeBodySolver(const Model& model, int max_rows, const SolverP
   E_.setZero(m, m);
   pivot_.setZero(m);
   inverse_diagonal_.setZero(m);
+  interleaved_.setZero(4 * m);
   y_.setZero(m);
   v_.setZero(m);
   u_.setZero(m);
@@ -386,8 +388,10 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
     }
     u_.head(mk) = u_rhs_.head(mk);
     const double task_rhs2 = y_.head(mk).squaredNorm();
-    double* const rhs[3] = {y_.data(), u_.data(), p > 0 ? z_.data() : v_.data()};
-    solve_in_place<3>(mk, rhs);
+    // The task, null-space and inverse-iteration solves in one pass over the factor (a
+    // CPU-dispatched kernel: four lanes hold the three right-hand sides' entries of a row).
+    three_solves_(L_.data(), L_.outerStride(), inverse_diagonal_.data(), mk, y_.data(), u_.data(),
+                  p > 0 ? z_.data() : v_.data(), interleaved_.data());
     if (p > 0) elimination.expand(v_.data(), z_.data(), v_.data(), 0.0);
     // |A^-1 v| <= 1 / lambda_min, with equality for the converged eigenvector.
     lambda_min = 1.0 / normalize_iterate(m);

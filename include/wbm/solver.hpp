@@ -175,6 +175,9 @@ class WholeBodySolver {
   /// Kernel of H y and H u, chosen likewise.
   void (*transpose_products_)(const double* Jwt, Eigen::Index ld, int m, int n, const double* y1, const double* y2,
                               double* x1, double* x2);
+  /// Kernel of the cycle's three triangular solves (task, null space, inverse iteration), chosen likewise.
+  void (*three_solves_)(const double* L, Eigen::Index ld, const double* inv_d, int m, double* x0, double* x1,
+                        double* x2, double* X);
   std::unique_ptr<internal::UnitRowElimination> elimination_;  // joint rows, solved exactly outside A
   Mask free_;                 // b_C, plus dofs frozen at their limits
   Mask frozen_at_limit_;      // the dofs frozen at their limits in the last solve
@@ -196,6 +199,7 @@ class WholeBodySolver {
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> L_, E_;
   Eigen::VectorXd pivot_;             // running pivots during the factorisation
   Eigen::VectorXd inverse_diagonal_;  // D^-1
+  Eigen::VectorXd interleaved_;       // the three right-hand sides of three_solves_, four entries per row
   Eigen::VectorXd y_, v_, g_, u_, u_rhs_, z_;  // z_: the kept part of v
   Eigen::VectorXd previous_null_;
   Eigen::VectorXd previous_qdot_;  // the last solve's q_dot and x_dot (adapt_damping)
