@@ -200,7 +200,8 @@ ControllerStatus Controller::update(const Command& command, double dt) {
   const double rate_limit = solver_parameters_.nullspace_rate_change_limit;
   if (!external) external_.setZero();
   if (rate_limit > 0.0 && internal::rate_change_exceeds(qdot->data(), qdot_.data(), external_.data(),
-                                              model_.max_speeds().data(), rate_limit * dt, model_.num_dofs())) {
+                                                        model_.max_speeds().data(), rate_limit * dt,
+                                                        model_.num_dofs())) {
     const Eigen::VectorXd& vmax = model_.max_speeds();
     for (int i = 0; i < model_.num_dofs(); ++i) {
       double v = (*qdot)[i];
