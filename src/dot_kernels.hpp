@@ -145,7 +145,7 @@ TransposeProductsKernel select_transpose_products();
 /// reciprocal pivots 1 / D_i.
 using ThreeSolvesKernel = void (*)(const double* L, Eigen::Index ld, const double* inv_d, int m, double* x0,
                                    double* x1, double* x2, double* X);
-/// Two-lane version (any CPU).
+/// Plain loops (any CPU).
 void three_solves_portable(const double* L, Eigen::Index ld, const double* inv_d, int m, double* x0, double* x1,
                            double* x2, double* X);
 /// Four-lane AVX2/FMA version (a row of X per operation), or nullptr where it is not compiled in.
