@@ -79,9 +79,12 @@ Vector3 RelativeFrame::z_axis(const Model& model, const Data& data) const {
 }
 
 Transform RelativeFrame::pose(const Model& model, const Data& data) const {
-  const Transform X_WF = frame_pose(model, data, frame_);
-  if (reference_ < 0) return X_WF;
-  return frame_pose(model, data, reference_).inverse() * X_WF;
+  // One named result, built in the caller's slot: a copy of a local pose at the return
+  // (16-byte moves across the 24-byte columns just stored) waits for failed store-to-load
+  // forwarding.
+  Transform X = frame_pose(model, data, frame_);
+  if (reference_ >= 0) X = frame_pose(model, data, reference_).inverse() * X;
+  return X;
 }
 
 void RelativeFrame::translational_jacobian(const Model& model, const Data& data, Eigen::Ref<Eigen::MatrixXd> J) {

@@ -75,7 +75,8 @@ namespace {
 void AxisTask::evaluate(const Model& model, const Data& data, const Eigen::Ref<const Eigen::VectorXd>& target,
                         const Eigen::Ref<const Eigen::VectorXd>& target_rate, Eigen::Ref<Eigen::MatrixXd> J,
                         Eigen::Ref<Eigen::VectorXd> error, Eigen::Ref<Eigen::VectorXd> rate) {
-  const Matrix3 R_RF = frame_.pose(model, data).R;
+  const Transform X_RF = frame_.pose(model, data);  // in place: no copy of the rotation to wait on
+  const Matrix3& R_RF = X_RF.R;
   const Vector3 a_t = target.head<3>();
   double phi = 0.0;
   const Matrix3 R_sl = z_axis_ ? sl_frame(R_RF.col(2), a_t, R_RF.col(1), &phi)
