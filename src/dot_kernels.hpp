@@ -21,6 +21,19 @@ inline Lanes load_lanes(const double* p) {
 }
 #endif
 
+/// p[0] = a, p[1] = b as one 16-byte store where the vector extension exists. Rows that the
+/// two-lane kernels read back in pairs soon after must be written in such pairs: a 16-byte
+/// load is not forwarded from two 8-byte stores and waits until both reach the cache.
+inline void store_pair(double* p, double a, double b) {
+#if defined(__GNUC__)
+  const Lanes v = {a, b};
+  __builtin_memcpy(p, &v, sizeof v);
+#else
+  p[0] = a;
+  p[1] = b;
+#endif
+}
+
 /// true if all n entries are finite: x * 0 is +-0 for finite x and NaN for inf and NaN, so
 /// the sum is 0 exactly when all are finite. Two independent sums, no branch per entry
 /// (Eigen's allFinite() compares entry by entry with an early exit).

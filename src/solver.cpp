@@ -120,13 +120,16 @@ bool WholeBodySolver::factorize(int m) {
     double s[4];
     internal::two_dot_products(Ej, &L_(j1, 0), &L_(j1, 0), j, s);
     const double e = A_(j1, j) - s[0];
-    E_(j1, j) = e;
-    L_(j1, j) = e * inv0;
-    pivot_[j1] -= L_(j1, j) * e;
+    const double l = e * inv0;
+    // Entries in column pairs (j, j + 1), the pairs the dot products load; the diagonal
+    // stays zero in L (the backward solve relies on it) and is never read in E.
+    internal::store_pair(&E_(j1, j), e, 0.0);
+    internal::store_pair(&L_(j1, j), l, 0.0);
+    pivot_[j1] -= l * e;
     if (!(pivot_[j1] > tiny)) return false;
     const double inv1 = 1.0 / pivot_[j1];
     inverse_diagonal_[j1] = inv1;
-    const double e_j1j = E_(j1, j);
+    const double e_j1j = e;
     for (int i = j + 2; i < m; i += 2) {
       const int i1 = std::min(i + 1, m - 1);
       internal::four_dot_products(Ej, Ej1, &L_(i, 0), &L_(i1, 0), j, s);
@@ -135,16 +138,12 @@ bool WholeBodySolver::factorize(int m) {
       const double l00 = e00 * inv0, l10 = e10 * inv0;
       const double e01 = A_(i, j1) - s[1] - l00 * e_j1j, e11 = A_(i1, j1) - s[3] - l10 * e_j1j;
       const double l01 = e01 * inv1, l11 = e11 * inv1;
-      E_(i, j) = e00;
-      L_(i, j) = l00;
-      E_(i, j1) = e01;
-      L_(i, j1) = l01;
+      internal::store_pair(&E_(i, j), e00, e01);
+      internal::store_pair(&L_(i, j), l00, l01);
       pivot_[i] -= l00 * e00 + l01 * e01;
       if (i1 != i) {
-        E_(i1, j) = e10;
-        L_(i1, j) = l10;
-        E_(i1, j1) = e11;
-        L_(i1, j1) = l11;
+        internal::store_pair(&E_(i1, j), e10, e11);
+        internal::store_pair(&L_(i1, j), l10, l11);
         pivot_[i1] -= l10 * e10 + l11 * e11;
       }
     }
