@@ -50,11 +50,12 @@ void transpose_products_portable(const double* Jwt, Eigen::Index ld, int m, int 
   }
 }
 
-void three_solves_portable(const double* L, Eigen::Index ld, const double* inv_d, int m, double* x0, double* x1,
-                           double* x2, double* X) {
+void three_solves_portable(const double* L, Eigen::Index ld, const double* inv_d, int m, const double* b0,
+                           const double* b1, const double* b2, double* x0, double* x1, double* x2, double* X) {
+  const double* const b[3] = {b0, b1, b2};
   double* const x[3] = {x0, x1, x2};
   for (int i = 0; i < m; ++i)
-    for (int r = 0; r < 3; ++r) X[4 * i + r] = x[r][i];
+    for (int r = 0; r < 3; ++r) X[4 * i + r] = b[r][i];
   // Forward, L z = b, by rows (inner products), then z / D, then backward, L^T x = y, by
   // rows of L (x_k -= L_ik x_i for k < i).
   for (int i = 1; i < m; ++i) {
@@ -149,13 +150,14 @@ __attribute__((target("avx2,fma"))) void transpose_products_avx2_kernel(const do
 __attribute__((target("avx2,fma"))) inline void store4(double* p, Lanes4 v) { __builtin_memcpy(p, &v, sizeof v); }
 
 __attribute__((target("avx2,fma"))) void three_solves_avx2_kernel(const double* L, Eigen::Index ld,
-                                                                  const double* inv_d, int m, double* x0,
+                                                                  const double* inv_d, int m, const double* b0,
+                                                                  const double* b1, const double* b2, double* x0,
                                                                   double* x1, double* x2, double* X) {
   // Interleave four rows at a time: a 4 x 4 transpose of (x0, x1, x2, 0).
   const Lanes4 zero = {0.0, 0.0, 0.0, 0.0};
   int i0 = 0;
   for (; i0 + 3 < m; i0 += 4) {
-    const Lanes4 a = load4(x0 + i0), b = load4(x1 + i0), c = load4(x2 + i0);
+    const Lanes4 a = load4(b0 + i0), b = load4(b1 + i0), c = load4(b2 + i0);
     const Lanes4 t0 = __builtin_shufflevector(a, b, 0, 4, 2, 6), t1 = __builtin_shufflevector(a, b, 1, 5, 3, 7);
     const Lanes4 t2 = __builtin_shufflevector(c, zero, 0, 4, 2, 6), t3 = __builtin_shufflevector(c, zero, 1, 5, 3, 7);
     store4(X + 4 * i0, __builtin_shufflevector(t0, t2, 0, 1, 4, 5));
@@ -163,7 +165,7 @@ __attribute__((target("avx2,fma"))) void three_solves_avx2_kernel(const double* 
     store4(X + 4 * i0 + 8, __builtin_shufflevector(t0, t2, 2, 3, 6, 7));
     store4(X + 4 * i0 + 12, __builtin_shufflevector(t1, t3, 2, 3, 6, 7));
   }
-  for (int i = i0; i < m; ++i) store4(X + 4 * i, Lanes4{x0[i], x1[i], x2[i], 0.0});
+  for (int i = i0; i < m; ++i) store4(X + 4 * i, Lanes4{b0[i], b1[i], b2[i], 0.0});
   // One operation per entry of L for all three right-hand sides. Forward: two partial sums
   // per row halve its dependency chain.
   for (int i = 1; i < m; ++i) {

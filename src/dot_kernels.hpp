@@ -151,16 +151,18 @@ TransposeProductsKernel transpose_products_avx2();
 /// As select_weighted_gram().
 TransposeProductsKernel select_transpose_products();
 
-/// Solves L D L^T x = b in place for three right-hand sides x0, x1, x2 (m entries each),
-/// in one pass over L: they are interleaved into X (m rows of four entries, the fourth
-/// unused; 4 m entries of scratch) and back. L is unit lower triangular, row-major with
-/// leading dimension ld (only the part below the diagonal is read); inv_d holds the m
-/// reciprocal pivots 1 / D_i.
-using ThreeSolvesKernel = void (*)(const double* L, Eigen::Index ld, const double* inv_d, int m, double* x0,
-                                   double* x1, double* x2, double* X);
+/// Solves L D L^T x_r = b_r for three right-hand sides (m entries each) in one pass over L:
+/// b0, b1, b2 are interleaved into X (m rows of four entries, the fourth unused; 4 m entries
+/// of scratch), solved there and written to x0, x1, x2 (each x_r may be its b_r: in place).
+/// Separate inputs spare the caller a copy just before: the kernel's 32-byte loads of a
+/// vector just written in 16-byte halves would wait for failed store-to-load forwarding.
+/// L is unit lower triangular, row-major with leading dimension ld (only the part below the
+/// diagonal is read); inv_d holds the m reciprocal pivots 1 / D_i.
+using ThreeSolvesKernel = void (*)(const double* L, Eigen::Index ld, const double* inv_d, int m, const double* b0,
+                                   const double* b1, const double* b2, double* x0, double* x1, double* x2, double* X);
 /// Plain loops (any CPU).
-void three_solves_portable(const double* L, Eigen::Index ld, const double* inv_d, int m, double* x0, double* x1,
-                           double* x2, double* X);
+void three_solves_portable(const double* L, Eigen::Index ld, const double* inv_d, int m, const double* b0,
+                           const double* b1, const double* b2, double* x0, double* x1, double* x2, double* X);
 /// Four-lane AVX2/FMA version (a row of X per operation), or nullptr where it is not compiled in.
 ThreeSolvesKernel three_solves_avx2();
 /// As select_weighted_gram().

@@ -382,15 +382,16 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
     if (p > 0) {
       elimination.reduce(xdot.data(), y_.data(), 0.0);
       elimination.reduce(v_.data(), z_.data(), 0.0);
-    } else {
-      y_.head(m) = xdot;  // what reduce() gives too, but inline (20 ns on the paper model's solve)
     }
-    u_.head(mk) = u_rhs_.head(mk);
-    const double task_rhs2 = y_.head(mk).squaredNorm();
+    // The task's right-hand side: x_dot itself without eliminated rows (what reduce() gives).
+    const double* task_rhs = p > 0 ? y_.data() : xdot.data();
+    const double task_rhs2 = Eigen::Map<const Eigen::VectorXd>(task_rhs, mk).squaredNorm();
     // The task, null-space and inverse-iteration solves in one pass over the factor (a
-    // CPU-dispatched kernel: four lanes hold the three right-hand sides' entries of a row).
-    three_solves_(L_.data(), L_.outerStride(), inverse_diagonal_.data(), mk, y_.data(), u_.data(),
-                  p > 0 ? z_.data() : v_.data(), interleaved_.data());
+    // CPU-dispatched kernel: four lanes hold the three right-hand sides' entries of a row),
+    // read from where they are (no copies into y and u just before).
+    double* const iterate = p > 0 ? z_.data() : v_.data();
+    three_solves_(L_.data(), L_.outerStride(), inverse_diagonal_.data(), mk, task_rhs, u_rhs_.data(), iterate,
+                  y_.data(), u_.data(), iterate, interleaved_.data());
     if (p > 0) elimination.expand(v_.data(), z_.data(), v_.data(), 0.0);
     // |A^-1 v| <= 1 / lambda_min, with equality for the converged eigenvector.
     lambda_min = 1.0 / normalize_iterate(m);

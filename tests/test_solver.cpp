@@ -150,14 +150,25 @@ TEST(Solver, ThreeSolvesKernelsMatchEigen) {
     const Eigen::MatrixXd B = Eigen::MatrixXd::NullaryExpr(m, 3, [&] { return uniform(rng); });
     const Eigen::MatrixXd expected = A.ldlt().solve(B);
     for (const auto& [name, kernel] : kernels) {
-      // Each right-hand side with a NaN guard behind it; scratch of exactly 4 m entries.
-      Eigen::MatrixXd x = Eigen::MatrixXd::Constant(m + 1, 3, std::nan(""));
-      x.topRows(m) = B;
-      std::vector<double> scratch(4 * static_cast<std::size_t>(m), std::nan(""));
-      kernel(L.data(), ld, inv_d.data(), m, x.col(0).data(), x.col(1).data(), x.col(2).data(), scratch.data());
-      const double error = (x.topRows(m) - expected).cwiseAbs().maxCoeff();
-      ASSERT_LE(error, 1e-10 * (1.0 + expected.cwiseAbs().maxCoeff())) << name << " m " << m << " case " << c;
-      ASSERT_TRUE(x.row(m).array().isNaN().all()) << name << ": wrote past m, case " << c;
+      // In place, and from separate inputs (left untouched) into outputs; each vector with a
+      // NaN guard behind it; scratch of exactly 4 m entries.
+      for (const bool in_place : {true, false}) {
+        Eigen::MatrixXd b = Eigen::MatrixXd::Constant(m + 1, 3, std::nan(""));
+        b.topRows(m) = B;
+        const Eigen::MatrixXd b_before = b;
+        Eigen::MatrixXd separate = Eigen::MatrixXd::Constant(m + 1, 3, std::nan(""));
+        Eigen::MatrixXd& x = in_place ? b : separate;
+        std::vector<double> scratch(4 * static_cast<std::size_t>(m), std::nan(""));
+        kernel(L.data(), ld, inv_d.data(), m, b.col(0).data(), b.col(1).data(), b.col(2).data(), x.col(0).data(),
+               x.col(1).data(), x.col(2).data(), scratch.data());
+        const double error = (x.topRows(m) - expected).cwiseAbs().maxCoeff();
+        ASSERT_LE(error, 1e-10 * (1.0 + expected.cwiseAbs().maxCoeff()))
+            << name << " m " << m << " case " << c << (in_place ? " in place" : " separate");
+        ASSERT_TRUE(x.row(m).array().isNaN().all()) << name << ": wrote past m, case " << c;
+        if (!in_place) {
+          ASSERT_TRUE(b.topRows(m) == b_before.topRows(m)) << name << ": changed its input, case " << c;
+        }
+      }
     }
   }
 }

@@ -176,8 +176,8 @@ class WholeBodySolver {
   void (*transpose_products_)(const double* Jwt, Eigen::Index ld, int m, int n, const double* y1, const double* y2,
                               double* x1, double* x2);
   /// Kernel of the cycle's three triangular solves (task, null space, inverse iteration), chosen likewise.
-  void (*three_solves_)(const double* L, Eigen::Index ld, const double* inv_d, int m, double* x0, double* x1,
-                        double* x2, double* X);
+  void (*three_solves_)(const double* L, Eigen::Index ld, const double* inv_d, int m, const double* b0,
+                        const double* b1, const double* b2, double* x0, double* x1, double* x2, double* X);
   std::unique_ptr<internal::UnitRowElimination> elimination_;  // joint rows, solved exactly outside A
   Mask free_;                 // b_C, plus dofs frozen at their limits
   Mask frozen_at_limit_;      // the dofs frozen at their limits in the last solve
