@@ -57,7 +57,7 @@ void forward_kinematics(const Model& model, Data& data, const Eigen::Ref<const E
       if (plain[b]) {
         base = &P.R;
       } else {
-        offset_rotated = P.R * body.X_PJ.R;
+        offset_rotated.noalias() = P.R * body.X_PJ.R;
         base = &offset_rotated;
       }
     }
@@ -78,7 +78,7 @@ void forward_kinematics(const Model& model, Data& data, const Eigen::Ref<const E
     if (code != 0)
       rotated_about_axis(*base, std::abs(code) - 1, code > 0 ? s : -s, c, X.R);
     else
-      X.R = *base * axis_rotation(body.axis, s, c);
+      X.R.noalias() = *base * axis_rotation(body.axis, s, c);
   }
 }
 
