@@ -56,12 +56,34 @@ void express_point_jacobian_in_frame(const Model& model, const Data& data, int r
   express_columns_in(frame_pose(model, data, reference).R, J);
 }
 
+namespace {
+
+/// X_RF = X_WR^-1 X_WF, without an inverse pose to copy.
+Transform relative_pose(const Model& model, const Data& data, int frame, int reference) {
+  const Transform X_WF = frame_pose(model, data, frame);
+  const Transform X_WR = frame_pose(model, data, reference);
+  Transform X_RF;
+  X_RF.R.noalias() = X_WR.R.transpose() * X_WF.R;
+  X_RF.p.noalias() = X_WR.R.transpose() * (X_WF.p - X_WR.p);
+  return X_RF;
+}
+
+}  // namespace
+
 RelativeFrame::RelativeFrame(const Model& model, const std::string& frame, const std::string& reference)
     : frame_(model.frame_index(frame)),
       reference_(reference.empty() || reference == "world" ? -1 : model.frame_index(reference)) {}
 
 Matrix3 RelativeFrame::reference_rotation(const Model& model, const Data& data) const {
-  return reference_ < 0 ? Matrix3::Identity() : frame_pose(model, data, reference_).R;
+  // Built in place (not copied out of a pose; see pose()).
+  Matrix3 R_WR;
+  if (reference_ < 0) {
+    R_WR.setIdentity();
+  } else {
+    const Frame& f = model.frames()[reference_];
+    R_WR.noalias() = data.X_WB[f.body].R * f.X_BF.R;
+  }
+  return R_WR;
 }
 
 Vector3 RelativeFrame::position(const Model& model, const Data& data) const {
@@ -79,12 +101,9 @@ Vector3 RelativeFrame::z_axis(const Model& model, const Data& data) const {
 }
 
 Transform RelativeFrame::pose(const Model& model, const Data& data) const {
-  // One named result, built in the caller's slot: a copy of a local pose at the return
-  // (16-byte moves across the 24-byte columns just stored) waits for failed store-to-load
-  // forwarding.
-  Transform X = frame_pose(model, data, frame_);
-  if (reference_ >= 0) X = frame_pose(model, data, reference_).inverse() * X;
-  return X;
+  // Either pose is built in the caller's slot: a copy of a local pose at the return (16-byte
+  // moves across the 24-byte columns just stored) waits for failed store-to-load forwarding.
+  return reference_ < 0 ? frame_pose(model, data, frame_) : relative_pose(model, data, frame_, reference_);
 }
 
 void RelativeFrame::translational_jacobian(const Model& model, const Data& data, Eigen::Ref<Eigen::MatrixXd> J) {
