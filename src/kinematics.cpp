@@ -29,6 +29,12 @@ void rotated_about_axis(const Matrix3& B, int k, double s, double c, Matrix3& R)
   R.col(j) = c * bj - s * bi;
 }
 
+/// R = B column by column: a plain copy moves 16-byte pieces that straddle the columns, and
+/// the children's loads of a column then wait for failed store-to-load forwarding.
+void copy_columns(const Matrix3& B, Matrix3& R) {
+  for (int k = 0; k < 3; ++k) R.col(k) = B.col(k);
+}
+
 }  // namespace
 
 Data::Data(const Model& model)
@@ -66,7 +72,7 @@ void forward_kinematics(const Model& model, Data& data, const Eigen::Ref<const E
                   : code < 0 ? Vector3(-base->col(-code - 1))
                              : Vector3(*base * body.axis);
     if (body.dof < 0 || body.joint_type == JointType::kPrismatic) {
-      X.R = *base;
+      copy_columns(*base, X.R);
       if (body.dof >= 0) X.p += data.a_W[b] * (body.multiplier * q[body.dof] + body.offset);
       continue;
     }

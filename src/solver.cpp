@@ -326,14 +326,16 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
   const int m = static_cast<int>(J.rows());
   // The free dofs, compacted; frozen dofs (W^-1_ii = 0) take no part in the products.
   int nf = 0;
+  // g = W^-1 dH/dq in the same pass (loads of w in pairs right after these stores would
+  // wait for failed store-to-load forwarding).
   for (int i = 0; i < n; ++i) {
     w_[i] = free_[i] ? range_sq_[i] : 0.0;
+    g_[i] = w_[i] * gradient[i];
     if (free_[i]) free_index_[nf++] = i;
   }
   if (nf == 0) return kAllDofsFrozen;
   if (m > nf) flags |= kOverdetermined;
   out_.damping = 0.0;
-  g_ = w_.cwiseProduct(gradient);
   if (m == 0) {
     flags |= kNoActiveRows;
     out_.qdot_null = -parameters_.nullspace_gain * g_;
@@ -687,15 +689,24 @@ Eigen::MatrixXd WholeBodySolver::pseudo_inverse(const Eigen::MatrixXd& J, const 
 std::uint32_t integrate(const Model& model, const Eigen::Ref<const Eigen::VectorXd>& q,
                         const Eigen::Ref<const Eigen::VectorXd>& qdot, double dt, Eigen::Ref<Eigen::VectorXd> q_next) {
   std::uint32_t flags = kSolverOk;
-  for (int i = 0; i < q.size(); ++i) {
+  const int n = static_cast<int>(q.size());
+  auto step = [&](int i) {
     const double x = q[i] + qdot[i] * dt;
     const double clamped = std::clamp(x, model.lower_limits()[i], model.upper_limits()[i]);
     // A step that lands on the limit (a braked dof, solve()) may round past it by an ulp;
     // put back there, it is not a clamp.
     if (clamped != x && std::abs(x - clamped) > 4.0 * std::numeric_limits<double>::epsilon() * (1.0 + std::abs(clamped)))
       flags |= kJointLimitClamped;
-    q_next[i] = clamped;
+    return clamped;
+  };
+  // Stored in pairs: the caller reads q_next in pairs at once (q_dot from the step), and a
+  // 16-byte load of two fresh 8-byte stores waits for failed store-to-load forwarding.
+  int i = 0;
+  for (; i + 1 < n; i += 2) {
+    const double first = step(i);
+    internal::store_pair(q_next.data() + i, first, step(i + 1));
   }
+  if (i < n) q_next[i] = step(i);
   return flags;
 }
 
