@@ -262,6 +262,9 @@ class Fixture {
   std::unique_ptr<wbm::WholeBodySolver> part_solver;
   std::vector<wbm::TrajectoryFilter> part_filters;
   VectorXd part_targets;
+  // The filters and their targets in part_targets, advanced together as the Controller does.
+  std::vector<wbm::TrajectoryFilter*> part_filter_list;
+  std::vector<const double*> part_target_list;
   double t_part = 0.0;
 
  private:
@@ -864,6 +867,10 @@ void Fixture::record_states() {
     part_filters.back().reset(controller->values().segment(stack.target_offset(i), e.target_dim()),
                               VectorXd::Zero(e.target_dim()));
   }
+  for (std::size_t i = 0; i < part_filters.size(); ++i) {
+    part_filter_list.push_back(&part_filters[i]);
+    part_target_list.push_back(part_targets.data() + motions[i].t0);
+  }
 }
 
 void Fixture::check_kdl(KdlTree& k) {
@@ -1066,8 +1073,8 @@ void bm_wbm_part(benchmark::State& state, const FixtureSpec* spec, Part part) {
             for (const Motion& mo : f->motions) mo.write(f->t_part, f->part_targets.segment(mo.t0, mo.n));
           },
           [&] {
-            for (std::size_t i = 0; i < f->part_filters.size(); ++i)
-              f->part_filters[i].update(f->part_targets.segment(f->motions[i].t0, f->motions[i].n), kDt);
+            wbm::TrajectoryFilter::update_together(f->part_filter_list.data(), f->part_target_list.data(),
+                                                   static_cast<int>(f->part_filter_list.size()), kDt);
           });
       break;
     case Part::kForwardKinematics:

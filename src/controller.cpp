@@ -45,6 +45,8 @@ int Controller::add_task(std::unique_ptr<TaskElement> element, const FilterParam
   const int index = stack_.add_element(std::move(element));
   stack_.set_feedback_limit(index, filter.max_speed);
   filters_.push_back(std::move(f));
+  active_filters_.resize(filters_.size());
+  active_targets_.resize(filters_.size());
   solver_.reset();
   return index;
 }
@@ -114,6 +116,7 @@ ControllerStatus Controller::update(const Command& command, double dt) {
   const bool rows_switched = std::memcmp(command.task_active.data(), was_row_active_.data(),
                                          sizeof(bool) * static_cast<std::size_t>(stack_.num_rows())) != 0;
   stack_.activation() = command.task_active;
+  int active_count = 0;
   for (int i = 0; i < stack_.num_elements(); ++i) {
     const TaskElement& e = stack_.element(i);
     const int t0 = stack_.target_offset(i), n = e.target_dim();
@@ -149,10 +152,17 @@ ControllerStatus Controller::update(const Command& command, double dt) {
         commanded_[t0 + k] = from + std::remainder(commanded_[t0 + k] - from, period);
       }
     }
-    if (active) filters_[i].update(commanded_.segment(t0, n), dt);
+    if (active) {
+      active_filters_[active_count] = &filters_[i];
+      active_targets_[active_count++] = commanded_.data() + t0;
+    }
+    was_active_[i] = active;
+  }
+  TrajectoryFilter::update_together(active_filters_.data(), active_targets_.data(), active_count, dt);
+  for (int i = 0; i < stack_.num_elements(); ++i) {
+    const int t0 = stack_.target_offset(i), n = stack_.element(i).target_dim();
     copy_entries(filters_[i].value().data(), n, stack_.targets().data() + t0);
     copy_entries(filters_[i].velocity().data(), n, stack_.target_rates().data() + t0);
-    was_active_[i] = active;
   }
   if (rows_switched) was_row_active_ = stack_.activation();
   const int m = stack_.assemble(model_, data_);

@@ -196,35 +196,43 @@ bool TrajectoryFilter::slerp_by_fraction(Eigen::Ref<Eigen::VectorXd> x, const Ve
   return true;
 }
 
-void TrajectoryFilter::update(const Eigen::Ref<const Eigen::VectorXd>& target, double dt) {
-  const int n = parameters_.order;
-  if (dt != fraction_dt_) {  // the cycle time rarely changes: exp only when it does
-    fraction_dt_ = dt;
-    fraction_ = 1.0 - std::exp(-parameters_.bandwidth * dt);
-    if (kind_ == TargetKind::kDirection) {
-      slerp_series(fraction_, slerp_alpha_, slerp_beta_);
-      // Stage 1 steps by fraction * angle while that is below max_speed dt.
-      const double angle = parameters_.max_speed * dt / fraction_;
-      const double half_chord = std::sin(0.5 * std::min(angle, M_PI));
-      stage1_v_limit_ = std::min(kSlerpMaxV, 4.0 * half_chord * half_chord);
-    }
+[[gnu::always_inline]] inline void TrajectoryFilter::prepare(double dt) {
+  if (dt == fraction_dt_) return;  // the cycle time rarely changes: exp only when it does
+  fraction_dt_ = dt;
+  fraction_ = 1.0 - std::exp(-parameters_.bandwidth * dt);
+  if (kind_ == TargetKind::kDirection) {
+    slerp_series(fraction_, slerp_alpha_, slerp_beta_);
+    // Stage 1 steps by fraction * angle while that is below max_speed dt.
+    const double angle = parameters_.max_speed * dt / fraction_;
+    const double half_chord = std::sin(0.5 * std::min(angle, M_PI));
+    stage1_v_limit_ = std::min(kSlerpMaxV, 4.0 * half_chord * half_chord);
   }
+}
+
+[[gnu::always_inline]] inline void TrajectoryFilter::advance_stage(int k, const double* target, double dt) {
   const double fraction = fraction_;
   if (kind_ == TargetKind::kDirection) {
-    // The stages are unit vectors; so is the target from here on.
-    const Vector3 unit_target = internal::normalized_near_unit(target.head<3>());
-    if (!slerp_by_fraction(stages_.col(0), unit_target, stage1_v_limit_))
-      move_towards(stages_.col(0), unit_target, fraction, parameters_.max_speed * dt);
-    for (int k = 1; k < n; ++k) {
+    if (k == 0) {
+      // The stages are unit vectors; so is the target from here on.
+      const Vector3 unit_target = internal::normalized_near_unit(Eigen::Map<const Vector3>(target));
+      if (!slerp_by_fraction(stages_.col(0), unit_target, stage1_v_limit_))
+        move_towards(stages_.col(0), unit_target, fraction, parameters_.max_speed * dt);
+    } else {
       const Vector3 previous = stages_.col(k - 1).head<3>();
       if (!slerp_by_fraction(stages_.col(k), previous, kSlerpMaxV))
         move_towards(stages_.col(k), stages_.col(k - 1), fraction, kInfinity);
     }
+  } else if (k == 0) {
+    move_towards(stages_.col(0), Eigen::Map<const Eigen::VectorXd>(target, stages_.rows()), fraction,
+                 parameters_.max_speed * dt);
   } else {
-    move_towards(stages_.col(0), target, fraction, parameters_.max_speed * dt);
-    for (int k = 1; k < n; ++k) move_towards(stages_.col(k), stages_.col(k - 1), fraction, kInfinity);
+    move_towards(stages_.col(k), stages_.col(k - 1), fraction, kInfinity);
   }
+}
+
+[[gnu::always_inline]] inline void TrajectoryFilter::finish(double dt) {
   // value_ is still the last stage before this update (every reset keeps them equal).
+  const int n = parameters_.order;
   const double inverse_dt = 1.0 / dt;
   if (value_.size() == 3) {  // positions and directions, without dynamic-size loops
     const Vector3 last = stages_.col(n - 1).head<3>();
@@ -234,6 +242,25 @@ void TrajectoryFilter::update(const Eigen::Ref<const Eigen::VectorXd>& target, d
     velocity_ = (stages_.col(n - 1) - value_) * inverse_dt;
     value_ = stages_.col(n - 1);
   }
+}
+
+void TrajectoryFilter::update(const Eigen::Ref<const Eigen::VectorXd>& target, double dt) {
+  prepare(dt);
+  for (int k = 0; k < parameters_.order; ++k) advance_stage(k, target.data(), dt);
+  finish(dt);
+}
+
+void TrajectoryFilter::update_together(TrajectoryFilter* const* filters, const double* const* targets, int count,
+                                       double dt) {
+  int max_order = 0;
+  for (int i = 0; i < count; ++i) {
+    filters[i]->prepare(dt);
+    max_order = std::max(max_order, filters[i]->parameters_.order);
+  }
+  for (int k = 0; k < max_order; ++k)
+    for (int i = 0; i < count; ++i)
+      if (k < filters[i]->parameters_.order) filters[i]->advance_stage(k, targets[i], dt);
+  for (int i = 0; i < count; ++i) filters[i]->finish(dt);
 }
 
 }  // namespace wbm

@@ -450,6 +450,52 @@ TEST(TrajectoryFilter, NoOvershootSpeedLimitContinuousVelocity) {
   }
 }
 
+// The Controller advances its filters together, stage by stage across the filters: the same
+// numbers, bit for bit, as one update() after another, for every kind, size and order, with
+// targets near and far (both the series and the speed-limited steps) and changing cycle times.
+TEST(TrajectoryFilter, UpdatedTogetherEqualsOneAfterAnother) {
+  std::mt19937_64 rng(29);
+  std::uniform_real_distribution<double> u(-1.0, 1.0), w(0.5, 20.0), s(0.05, 2.0);
+  for (int c = 0; c < 300; ++c) {
+    const int count = 1 + static_cast<int>(rng() % 6);
+    std::vector<TrajectoryFilter> one, together;
+    std::vector<int> dims;
+    for (int i = 0; i < count; ++i) {
+      const bool direction = rng() % 2 == 0;
+      const int dim = direction ? 3 : 1 + static_cast<int>(rng() % 7);
+      const FilterParameters p{w(rng), s(rng), 2 + static_cast<int>(rng() % 5)};
+      const TargetKind kind = direction ? TargetKind::kDirection : TargetKind::kVector;
+      one.emplace_back(kind, dim, p);
+      together.emplace_back(kind, dim, p);
+      VectorXd value = VectorXd::NullaryExpr(dim, [&] { return u(rng); });
+      if (direction) value.normalize();
+      const VectorXd velocity = VectorXd::NullaryExpr(dim, [&] { return 0.1 * u(rng); });
+      one.back().reset(value, velocity);
+      together.back().reset(value, velocity);
+      dims.push_back(dim);
+    }
+    std::vector<TrajectoryFilter*> filters;
+    for (TrajectoryFilter& f : together) filters.push_back(&f);
+    double dt = 0.001;
+    for (int k = 0; k < 200; ++k) {
+      if (k % 50 == 49) dt = 0.0005 + 0.002 * (u(rng) + 1.0);
+      std::vector<VectorXd> targets;
+      std::vector<const double*> target_data;
+      for (int i = 0; i < count; ++i) {
+        const double reach = k % 20 == 0 ? 3.0 : 0.05;  // now and then far (speed-limited)
+        targets.push_back(one[i].value() + reach * VectorXd::NullaryExpr(dims[i], [&] { return u(rng); }));
+        target_data.push_back(targets.back().data());
+      }
+      for (int i = 0; i < count; ++i) one[i].update(targets[i], dt);
+      TrajectoryFilter::update_together(filters.data(), target_data.data(), count, dt);
+      for (int i = 0; i < count; ++i) {
+        ASSERT_TRUE(one[i].value() == together[i].value()) << "case " << c << " step " << k << " filter " << i;
+        ASSERT_TRUE(one[i].velocity() == together[i].velocity()) << "case " << c << " step " << k << " filter " << i;
+      }
+    }
+  }
+}
+
 TEST(TrajectoryFilter, RejectsParametersOutsideTheirRanges) {
   const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
   for (const double bandwidth : {0.0, -1.0, nan, inf, 1e-320, 0.999e-3})

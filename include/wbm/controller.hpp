@@ -109,6 +109,10 @@ class Controller {
   Data data_;
   TaskStack stack_;
   std::vector<TrajectoryFilter> filters_;
+  // The active elements' filters and their commanded targets of a cycle, advanced together
+  // (TrajectoryFilter::update_together); one entry per element, filled in update().
+  std::vector<TrajectoryFilter*> active_filters_;
+  std::vector<const double*> active_targets_;
   std::unique_ptr<NullSpaceCriterion> criterion_;
   SolverParameters solver_parameters_;
   std::unique_ptr<WholeBodySolver> solver_;  // sized in reset() for the final task rows
