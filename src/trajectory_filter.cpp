@@ -150,12 +150,16 @@ void TrajectoryFilter::move_towards(Eigen::Ref<Eigen::VectorXd> x, const Eigen::
       }
       return;
     }
-    const double distance2 = (to - x).squaredNorm();
-    if (fraction * fraction * distance2 <= max_step * max_step) {
-      x += fraction * (to - x);
-    } else {
-      x += (to - x) * (max_step / (distance2 < kInfinity ? std::sqrt(distance2) : (to - x).stableNorm()));
-    }
+    // Other sizes (joint rows) in plain loops: Eigen's dynamic-size loops peel entries to
+    // align each column, so consecutive stages (columns of odd length) were stored and then
+    // loaded in pairs that straddle (failed store-to-load forwarding on the stage chain).
+    const int n = static_cast<int>(x.size());
+    double distance2 = 0.0;
+    for (int i = 0; i < n; ++i) distance2 += (to[i] - x[i]) * (to[i] - x[i]);
+    double step = fraction;
+    if (!(fraction * fraction * distance2 <= max_step * max_step))
+      step = max_step / (distance2 < kInfinity ? std::sqrt(distance2) : (to - x).stableNorm());
+    for (int i = 0; i < n; ++i) x[i] += step * (to[i] - x[i]);
     return;
   }
   // Great circle: rotate x towards `to` by the step angle; both are unit vectors (the
@@ -238,9 +242,12 @@ bool TrajectoryFilter::slerp_by_fraction(Eigen::Ref<Eigen::VectorXd> x, const Ve
     const Vector3 last = stages_.col(n - 1).head<3>();
     velocity_.head<3>() = (last - value_.head<3>()) * inverse_dt;
     value_.head<3>() = last;
-  } else {
-    velocity_ = (stages_.col(n - 1) - value_) * inverse_dt;
-    value_ = stages_.col(n - 1);
+  } else {  // plain loops, as in move_towards()
+    const double* last = stages_.col(n - 1).data();
+    for (int i = 0; i < value_.size(); ++i) {
+      velocity_[i] = (last[i] - value_[i]) * inverse_dt;
+      value_[i] = last[i];
+    }
   }
 }
 
