@@ -82,8 +82,9 @@ struct SolverOutput {
 ///
 /// Factorisation: A = J W^-1 J^T = L D L^T (m x m, square-root-free Cholesky). The
 /// smallest eigenvalue of A (sigma_min^2) is estimated by inverse iteration warm-started
-/// from the previous cycle (one step per cycle; two near the threshold, three when the row
-/// count changed), and bounded by the task solve: lambda_min <= |x_dot| / |A^-1 x_dot|.
+/// from the previous cycle (one step per cycle, its Rayleigh quotient the estimate; another
+/// near the threshold while the iterate still turns; three when the row count changed), and
+/// bounded by the task solve: lambda_min <= |x_dot| / |A^-1 x_dot|.
 /// Below the threshold eps the damped form A + lambda^2 E is used with
 /// lambda^2 = lambda_max^2 (1 - sigma_min^2 / eps^2) (singularity-robust inverse, Nakamura
 /// 1986): lambda is continuous in the configuration and J J# = E holds exactly away from
@@ -163,8 +164,12 @@ class WholeBodySolver {
   void solve_in_place(int m, double* const (&x)[K]) const;
   /// Prepares the inverse-iteration vector v for this cycle; returns the number of steps.
   int start_inverse_iteration(int m);
-  /// Normalises v after a solve and returns the norm it had.
-  double normalize_iterate(int m);
+  /// One step v <- A^-1 v / |A^-1 v| (through the eliminated rows' Schur complement when
+  /// p > 0); returns the Rayleigh quotient, an upper bound of lambda_min.
+  double inverse_iteration_step(int m, int p, double& cosine);
+  /// v <- w / |w| for w = A^-1 v (in step_); returns the Rayleigh quotient (v . w) / |w|^2
+  /// and the cosine of the angle between v and w.
+  double finish_inverse_iteration_step(int m, double& cosine);
 
   const Model& model_;
   SolverParameters parameters_;
@@ -201,6 +206,7 @@ class WholeBodySolver {
   Eigen::VectorXd inverse_diagonal_;  // D^-1
   Eigen::VectorXd interleaved_;       // the three right-hand sides of three_solves_, four entries per row
   Eigen::VectorXd y_, v_, g_, u_, u_rhs_, z_;  // z_: the kept part of v
+  Eigen::VectorXd step_;                       // w = A^-1 v, the inverse-iteration step
   Eigen::VectorXd previous_null_;
   Eigen::VectorXd previous_qdot_;  // the last solve's q_dot and x_dot (adapt_damping)
   Eigen::VectorXd previous_xdot_;
@@ -210,7 +216,6 @@ class WholeBodySolver {
   double raised_at_rate_ = 1.0;   // |x_dot| when it was last raised
   double effective_damping_factor_ = 1.0;  // this solve's: scaled by |x_dot| / raised_at_rate_
   int previous_rows_ = -1;
-  double last_estimate_ = 0.0;
   SolverOutput out_;
 };
 
