@@ -171,20 +171,20 @@ Vector3 center_of_mass_position(const Model& model, const Data& data) {
 
 void com_jacobian(const Model& model, const Data& data, Eigen::Ref<Eigen::MatrixXd> J) {
   // Column of joint i: a_i x (sum over the subtree of m_k (c_k - p_i)) / M for revolute,
-  // a_i * subtree mass / M for prismatic joints.
-  internal::zero_block(J);
+  // a_i * subtree mass / M for prismatic joints. Raw columns, as for the other Jacobians.
+  const ColumnWriter w = clear(J);
   const double inv_mass = 1.0 / model.total_mass();
-  const std::vector<Body>& bodies = model.bodies();
-  const int nb = static_cast<int>(bodies.size());
+  const Body* bodies = model.bodies().data();
+  const double* subtree_mass = model.subtree_mass().data();
+  const int nb = model.num_bodies();
   for (int b = 0; b < nb; ++b) {
     const Body& B = bodies[b];
     if (B.dof < 0) continue;  // a welded body: no column
-    const double m_sub = model.subtree_mass()[b];
-    if (B.joint_type == JointType::kRevolute) {
-      J.col(B.dof) += (B.multiplier * inv_mass) * data.a_W[b].cross(data.mc_W[b] - m_sub * data.X_WB[b].p);
-    } else {
-      J.col(B.dof) += (B.multiplier * inv_mass * m_sub) * data.a_W[b];
-    }
+    const Vector3& a = data.a_W[b];
+    if (B.joint_type == JointType::kRevolute)
+      add(w.col(B.dof), B.multiplier * inv_mass, a.cross(data.mc_W[b] - subtree_mass[b] * data.X_WB[b].p));
+    else
+      add(w.col(B.dof), B.multiplier * inv_mass * subtree_mass[b], a);
   }
 }
 
