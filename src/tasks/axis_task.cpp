@@ -97,10 +97,16 @@ void AxisTask::evaluate(const Model& model, const Data& data, const Eigen::Ref<c
   double phi = 0.0;
   Vector3 x_sl, y_sl, z_sl;  // the sl-frame's axes (no matrix to transpose: its loads would
                              // wait on the stores of its columns)
-  if (z_axis_)
-    sl_axes(R_RF.col(2), a_t, R_RF.col(1), &phi, x_sl, y_sl, z_sl);
-  else
-    sl_axes(R_RF * a_F_, a_t, R_RF * y_F_, &phi, x_sl, y_sl, z_sl);
+  // The axis and the fallback y in the reference frame (one inlined sl_axes for both cases).
+  Vector3 a_g, y_g;
+  if (z_axis_) {
+    a_g = R_RF.col(2);
+    y_g = R_RF.col(1);
+  } else {
+    a_g.noalias() = R_RF * a_F_;
+    y_g.noalias() = R_RF * y_F_;
+  }
+  sl_axes(a_g, a_t, y_g, &phi, x_sl, y_sl, z_sl);
   // eq. (18): rows x and y of A_sl-I * J_R. The relative angular velocity in the reference
   // frame is R_WR^T (w_F - w_R), so the rows are P (w_F - w_R) with P = R_sl^T R_WR^T, whose
   // rows are the world's x_sl and y_sl: (R_WR x_sl)^T, (R_WR y_sl)^T; the joints the frame
