@@ -436,8 +436,12 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
     // reach: 10,000 rad/s^2). No division in the common case.
     const double task_solution2 = y_.head(mk).squaredNorm();
     if (task_rhs2 < lambda_min * lambda_min * task_solution2) lambda_min = std::sqrt(task_rhs2 / task_solution2);
+    // Rows scaled to the edge of the double range: the step overflows (inf - inf in the
+    // solves) and gives no estimate. A number is needed for the damping decision: that of a
+    // singular A (the iterate, not finite, restarts next cycle).
+    if (!(lambda_min >= 0.0)) lambda_min = 0.0;
   }
-  out_.min_singular_value = std::sqrt(std::max(lambda_min, 0.0));
+  out_.min_singular_value = std::sqrt(lambda_min);
   double mu2 = 0.0;  // damping lambda^2
   if (lambda_min < eps2) {
     flags |= kDamped;

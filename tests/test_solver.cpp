@@ -780,6 +780,33 @@ TEST(Solver, SigmaMinEstimateFollowsTheEigenvalueNearTheThreshold) {
   }
 }
 
+// Rows scaled to the edges of the double range: A's entries ~1e-300 (the inverse iteration's
+// step overflows: its estimate was NaN, and the damping decision was made on it), ~1e-200,
+// ~1e150 and beyond the range (A overflows). The cycle gives finite rates and a defined
+// estimate of sigma_min; the tiny rows are damped.
+TEST(Solver, RowsNearTheEdgeOfTheDoubleRangeGiveFiniteRates) {
+  const Model model = make_paper_model();
+  const int n = model.num_dofs();
+  Data data(model);
+  TaskStack stack(model);
+  add_paper_tasks(model, stack);
+  forward_kinematics(model, data, model.home());
+  stack.assemble(model, data);
+  for (const double scale : {1e-150, 1e-100, 1e75, 1e160}) {
+    WholeBodySolver solver(model, stack.num_rows());
+    const MatrixXd J = scale * stack.jacobian();
+    const VectorXd xdot = VectorXd::Constant(stack.num_rows(), 0.01);
+    for (int k = 0; k < 3; ++k) {
+      const SolverStatus st = solver.solve(J, xdot, VectorXd::Zero(n), Mask::Constant(n, true), 0.001);
+      ASSERT_TRUE(solver.output().qdot.allFinite()) << "scale " << scale << ", cycle " << k;
+      ASSERT_FALSE(std::isnan(solver.output().min_singular_value)) << "scale " << scale << ", cycle " << k;
+      if (scale < 1.0) {
+        EXPECT_TRUE(st.has(kDamped)) << "scale " << scale;
+      }
+    }
+  }
+}
+
 TEST(Solver, MoreActiveRowsThanFreeDofs) {
   const Model model = make_paper_model();
   Data data(model);
