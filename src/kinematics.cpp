@@ -153,11 +153,16 @@ Vector3 center_of_mass(const Model& model, Data& data) {
   const std::vector<Body>& bodies = model.bodies();
   const int nb = static_cast<int>(bodies.size());
   for (int b = 0; b < nb; ++b) data.mc_W[b] = bodies[b].inertial.mass * (data.X_WB[b] * bodies[b].inertial.com);
-  for (int b = nb - 1; b > 0; --b)
-    if (bodies[b].parent >= 0) data.mc_W[bodies[b].parent] += data.mc_W[b];
+  // Subtree sums from the last body up (a child's index is above its parent's), each root's
+  // into the total as the pass reaches it.
   Vector3 mc = Vector3::Zero();
-  for (int b = 0; b < nb; ++b)
-    if (bodies[b].parent < 0) mc += data.mc_W[b];
+  for (int b = nb - 1; b >= 0; --b) {
+    const int parent = bodies[b].parent;
+    if (parent >= 0)
+      data.mc_W[parent] += data.mc_W[b];
+    else
+      mc += data.mc_W[b];
+  }
   data.p_WCm = mc / model.total_mass();
   return data.p_WCm;
 }
