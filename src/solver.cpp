@@ -416,8 +416,8 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
     const double task_rhs2 = Eigen::Map<const Eigen::VectorXd>(task_rhs, mk).squaredNorm();
     // The task, null-space and inverse-iteration solves in one pass over the factor (a
     // CPU-dispatched kernel: four lanes hold the three right-hand sides' entries of a row),
-    // read from where they are (no copies into y and u just before).
-    // The iterate's step goes to w (v stays for the Rayleigh quotient).
+    // read from where they are (no copies into y and u just before); the iterate's step
+    // goes to w = step_ (v stays for the Rayleigh quotient).
     three_solves_(L_.data(), L_.outerStride(), inverse_diagonal_.data(), mk, task_rhs, u_rhs_.data(),
                   p > 0 ? z_.data() : v_.data(), y_.data(), u_.data(), p > 0 ? z_.data() : step_.data(),
                   interleaved_.data());

@@ -20,6 +20,7 @@
 
 #include "alloc_counter.hpp"
 #include "fast_trig.hpp"
+#include "zero_block.hpp"
 #include "shipped_models.hpp"
 #include "test_util.hpp"
 #include "wbm/errors.hpp"
@@ -447,6 +448,30 @@ struct alignas(64) OverAligned {
 
 /// Keeps the optimiser from removing new/delete pairs (allowed since C++14).
 void* volatile g_escape = nullptr;
+
+// The Jacobian blocks' zeroing (one fixed-size loop per row count up to 8, a generic loop
+// above, one pass where the block is whole columns): exactly the block, nothing around it.
+TEST(ZeroBlock, ClearsExactlyTheBlockForEveryRowCount) {
+  std::mt19937_64 rng(41);
+  std::uniform_real_distribution<double> value(1.0, 2.0);
+  for (int rows = 1; rows <= 12; ++rows)
+    for (const int extra : {0, 1, 5}) {  // stride - rows (0: whole columns)
+      const int stride = rows + extra, cols = 7;
+      std::vector<double> buffer(static_cast<std::size_t>(stride * (cols + 2)));
+      for (double& x : buffer) x = value(rng);
+      const std::vector<double> before = buffer;
+      double* block = buffer.data() + stride;  // one column before and after left alone
+      wbm::internal::zero_block(block, rows, cols, stride);
+      for (int k = 0; k < static_cast<int>(buffer.size()); ++k) {
+        const int offset = k - stride;
+        const bool inside = offset >= 0 && offset < cols * stride && offset % stride < rows;
+        if (inside)
+          ASSERT_EQ(buffer[k], 0.0) << rows << " rows, stride " << stride << ", entry " << offset;
+        else
+          ASSERT_EQ(buffer[k], before[k]) << rows << " rows, stride " << stride << ", entry " << offset;
+      }
+    }
+}
 
 TEST(AllocationCounter, CountsVectorAllocations) {
   wbm_test::AllocationCounter counter;

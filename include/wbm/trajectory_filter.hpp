@@ -49,8 +49,8 @@ class TrajectoryFilter {
   void update(const Eigen::Ref<const Eigen::VectorXd>& target, double dt);
   /// update(targets[i], dt) for each filters[i] (targets[i]: its dim entries), stage by stage
   /// across the filters: each filter's stages are a chain of dependent operations, and
-  /// interleaving the filters lets the core overlap their chains (the Controller's filters
-  /// took about 40 % less time so). Same results as one update() after another. Never
+  /// interleaving the filters lets the core overlap their chains (the paper model's filter
+  /// stage took 20-25 % less time so). Same results as one update() after another. Never
   /// allocates.
   static void update_together(TrajectoryFilter* const* filters, const double* const* targets, int count, double dt);
   /// Filtered value and its time derivative.
