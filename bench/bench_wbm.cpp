@@ -616,7 +616,14 @@ int main(int argc, char** argv) {
   if (has_custom) {
     // The user's robot is built and checked before anything runs: a bad name or a failed
     // check is one error (bench_wbm: FAILED: ...), exit 1, no benchmark output.
-    if (!wbm_bench::prepare_fixture(custom).empty()) return 1;
+    // Under the failure, the checks' findings before it (convergence, tracking, how often
+    // damped or at a limit): what a user needs to see why.
+    if (!wbm_bench::prepare_fixture(custom).empty()) {
+      std::fprintf(stderr, "bench_wbm: the checks before the failure:\n");
+      for (const std::string& line : wbm_bench::notes())
+        if (line.rfind("FAILED: ", 0) != 0) std::fprintf(stderr, "  %s\n", line.c_str());
+      return 1;
+    }
     fixtures.push_back(custom);
   }
   for (const FixtureSpec& f : fixtures) {

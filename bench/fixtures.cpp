@@ -768,7 +768,8 @@ void Fixture::check_wbm() {
     if (record) solves.record(c, status);
     damped += status.has(wbm::kDamped);
     frozen += status.has(wbm::kDofAtLimitFrozen);
-    limited += status.has(wbm::kDamped) || status.has(wbm::kDofAtLimitFrozen) || status.has(wbm::kDofBraked);
+    limited += status.has(wbm::kDamped) || status.has(wbm::kDofAtLimitFrozen) || status.has(wbm::kDofBraked) ||
+               status.has(wbm::kTaskSpeedLimited);
     overdetermined += status.has(wbm::kOverdetermined);
     scaled += status.has(wbm::kNullSpaceSpeedScaled) || status.has(wbm::kNullSpaceJerkLimited) ||
               status.has(wbm::kTaskSpeedLimited);
@@ -791,14 +792,18 @@ void Fixture::check_wbm() {
   // trades tracking for bounded joint speeds by design (singularity-robust inverse). On the
   // fixtures, whose tracking guards against regressions, the hands must then stay within
   // half their motion's amplitude. On your robot (any --wbm_id) such a task set, or one that
-  // runs into joint limits or singularities in at least a fifth of the cycles (a "hand" on
-  // the torso; posture rows that hold a lift while the arms start stretched), only has to
-  // keep the hands within 2.5 amplitudes (the check is that the cycle runs; how well it
-  // tracks is in the warning), and with more rows than free dofs (your --com and --posture
-  // rows on top of the hands) no configuration meets them all: the hands only have to move.
+  // runs into joint limits, singularities or the joints' speed limits in at least one cycle
+  // in twenty (a "hand" on the torso; posture rows that hold a lift while the arms start
+  // stretched; arms whose limits the fixture's motion reaches: random variants of the
+  // dual-arm robot, 8-18 % of the cycles damped or at a limit, trailed their targets by
+  // 8-20 mm and could not be benchmarked at all), only has to keep the hands within 2.5
+  // amplitudes (the convergence check above has shown that the controller computes the
+  // robot right; the check here is that the cycle runs, and how well it tracks is in the
+  // warning), and with more rows than free dofs (your --com and --posture rows on top of the
+  // hands) no configuration meets them all: the hands only have to move.
   const bool custom = spec.user_robot;
   const bool mostly_damped = 2 * damped >= cycles;
-  const bool often_limited = custom && 5 * limited >= cycles;
+  const bool often_limited = custom && 20 * limited >= cycles;
   const bool overdetermined_set = custom && 2 * overdetermined >= cycles;
   const double tolerance = overdetermined_set                           ? std::numeric_limits<double>::infinity()
                            : custom && (mostly_damped || often_limited) ? 2.5 * kHandAmplitude
@@ -817,9 +822,10 @@ void Fixture::check_wbm() {
          fmt("%.0f %%", 100.0 * damped / cycles) + " of the moving cycles): the hands follow their targets within " +
          fmt("%.2g m", tracking) + ", and the timed cycles take the damped path (a second factorisation)");
   else if (often_limited && tracking >= 5e-3)
-    note("WARNING: " + spec.id + ": the task set runs into this robot's joint limits or singularities (damped in " +
-         fmt("%.0f %%", 100.0 * damped / cycles) + ", a dof frozen at its limit in " + fmt("%.0f %%", 100.0 * frozen / cycles) +
-         " of the moving cycles): the hands follow their targets within " + fmt("%.2g m", tracking) +
+    note("WARNING: " + spec.id + ": the task set runs into this robot's joint limits, singularities or speed limits "
+         "(damped, braked, at a limit or speed-limited in " + fmt("%.0f %%", 100.0 * limited / cycles) +
+         " of the moving cycles; damped in " + fmt("%.0f %%", 100.0 * damped / cycles) + ", a dof frozen at its limit in " +
+         fmt("%.0f %%", 100.0 * frozen / cycles) + "): the hands follow their targets within " + fmt("%.2g m", tracking) +
          ", and the timed cycles include these slower paths");
   else if (mostly_damped)
     note("NOTE: " + spec.id + ": the task set is singular or near-singular on this robot (damped in " +
