@@ -168,7 +168,11 @@ class Generator:
         balance_switched = False
         frozen = set()
         lines.append("timeline:")
-        times = sorted({round(r.uniform(0.0, DURATION - 0.01), 3) for _ in range(r.randint(1, 8))})
+        # Events apply at the start of a cycle: none after the last one's (the runner rejects
+        # such a file; a cycle time near 10 ms put it before DURATION - 0.01 s).
+        last_start = (round(DURATION / dt) - 1) * dt
+        times = sorted({math.floor(r.uniform(0.0, min(DURATION - 0.01, last_start)) * 1000) / 1000
+                        for _ in range(r.randint(1, 8))})
         for k, t in enumerate(times):
             parts = [f"t: {t}"]
             on = [name for name, _, _ in elements if r.random() < (0.8 if k == 0 else 0.3)]
