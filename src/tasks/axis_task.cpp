@@ -67,7 +67,7 @@ namespace {
 /// the chain's joint axes projected on u and v (world coordinates), without a 3 x n
 /// intermediate. Plain scalars and column pointers, inlined: with the Eigen version (2 x 3
 /// product, Ref indexing, a call per chain) GCC's task assembly took 3-7 % longer
-/// (bench/README.md, "Tried").
+/// (bench/optimization_log.md, "Tried and dropped").
 [[gnu::always_inline]] inline void add_projected_axes(const Model& model, const Data& data, int body,
                                                       const Vector3& u, const Vector3& v, double sign,
                                                       Eigen::Ref<Eigen::MatrixXd>& J) {
