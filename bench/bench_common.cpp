@@ -51,6 +51,8 @@ std::vector<float>& sample_buffer() {
   return buffer;
 }
 
+double sample_percentile(std::vector<float>& samples, double p) { return percentile(samples, p); }
+
 void set_percentile_counters(benchmark::State& state, std::vector<float>& samples_ns) {
   const double p50 = percentile(samples_ns, 0.50);
   const double p99 = percentile(samples_ns, 0.99);

@@ -29,6 +29,8 @@ bool any_failure();
 std::vector<float>& sample_buffer();
 /// Sets the counters p50_us and p99_us (median and 99th percentile of single calls).
 void set_percentile_counters(benchmark::State& state, std::vector<float>& samples_ns);
+/// The p-quantile (0 <= p <= 1) of the samples (reordered in place); 0 for none.
+double sample_percentile(std::vector<float>& samples, double p);
 
 /// Runs `body` once per benchmark iteration after `prepare` (untimed: e.g. the next
 /// target of a moving trajectory), times each call of `body` with steady_clock, reports

@@ -254,6 +254,7 @@ void bm_direction_filter(benchmark::State& state, bool varying_dt) {
 struct Result {
   double p50_us = 0.0, p99_us = 0.0, mean_us = 0.0;
   double damped_pct = 0.0, refrozen_pct = 0.0;  // wbm cycles only
+  double peer_p50_us = 0.0;                     // the paired run: KDL's median
 };
 
 /// Console output as usual, and the results kept for the tables at the end.
@@ -273,6 +274,8 @@ class TableReporter : public benchmark::ConsoleReporter {
       const auto damped = run.counters.find("damped_pct"), refrozen = run.counters.find("refrozen_pct");
       if (damped != run.counters.end()) r.damped_pct = damped->second.value;
       if (refrozen != run.counters.end()) r.refrozen_pct = refrozen->second.value;
+      const auto peer = run.counters.find("kdl_p50_us");
+      if (peer != run.counters.end()) r.peer_p50_us = peer->second.value;
       r.mean_us = run.real_accumulated_time / static_cast<double>(run.iterations) * 1e6;
       std::string name = run.benchmark_name();
       const std::string suffix = "/manual_time";
@@ -299,6 +302,7 @@ class TableReporter : public benchmark::ConsoleReporter {
     out.mean_us = median(&Result::mean_us);
     out.damped_pct = median(&Result::damped_pct);
     out.refrozen_pct = median(&Result::refrozen_pct);
+    out.peer_p50_us = median(&Result::peer_p50_us);
     return true;
   }
 
@@ -447,14 +451,24 @@ void print_tables(const TableReporter& rep, const std::vector<FixtureSpec>& fixt
     std::printf("  %-10s full cycle median %.2f us <= %.1f us: %s\n", g.id, r.p50_us, g.budget_us,
                 r.p50_us <= g.budget_us ? "met" : "MISSED");
   }
+  // The ratio from the separate benchmarks, and from the paired one where it ran (both
+  // solvers interleaved, so a slow spell of the machine hits both); the goal is judged on
+  // the paired ratio when there is one.
   for (const char* id : {"paper_r12", "g1_r20"}) {
     const std::string f = id;
-    Result a, b;
-    if (!rep.get(f + "/kdl_wdls/cycle", a) || !rep.get(f + "/wbm/cycle", b)) continue;
+    Result a, b, paired;
+    const bool separate = rep.get(f + "/kdl_wdls/cycle", a) && rep.get(f + "/wbm/cycle", b) && b.p50_us > 0.0;
+    const bool interleaved = rep.get(f + "/paired/wbm_vs_kdl_wdls", paired) && paired.p50_us > 0.0;
+    if (!separate && !interleaved) continue;
     if (!header) std::printf("\nGoals:\n");
     header = true;
-    std::printf("  %-10s KDL wdls (same tree) / wbm = %.1fx >= 20x: %s\n", id, a.p50_us / b.p50_us,
-                a.p50_us / b.p50_us >= 20.0 ? "met" : "MISSED");
+    const double judged = interleaved ? paired.peer_p50_us / paired.p50_us : a.p50_us / b.p50_us;
+    std::printf("  %-10s KDL wdls (same tree) / wbm = ", id);
+    if (separate) std::printf("%.1fx (separate runs)%s", a.p50_us / b.p50_us, interleaved ? ", " : "");
+    if (interleaved)
+      std::printf("%.1fx (paired: %.2f / %.2f us)", paired.peer_p50_us / paired.p50_us, paired.peer_p50_us,
+                  paired.p50_us);
+    std::printf(" >= 20x: %s\n", judged >= 20.0 ? "met" : "MISSED");
   }
 }
 
@@ -642,6 +656,7 @@ int main(int argc, char** argv) {
           ->Unit(benchmark::kMicrosecond);
     reg("wbm/cycle_out_of_reach", wbm_bench::bm_wbm_cycle_out_of_reach);
     reg("kdl_wdls/cycle", wbm_bench::bm_kdl_wdls_cycle);
+    reg("paired/wbm_vs_kdl_wdls", wbm_bench::bm_wbm_vs_kdl_wdls_paired);
     reg("kdl_wdls_urdf/cycle", wbm_bench::bm_kdl_wdls_urdf_cycle);
     reg("kdl_arm/cycle", wbm_bench::bm_kdl_arm_cycle);
     for (wbm_bench::Part part : wbm_bench::all_parts()) {

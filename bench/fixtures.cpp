@@ -1233,6 +1233,48 @@ void kdl_wdls_cycle(benchmark::State& state, KdlTree& k, bool cold_caches = fals
 
 }  // namespace
 
+void bm_wbm_vs_kdl_wdls_paired(benchmark::State& state, const FixtureSpec* spec) {
+  Fixture* f = get(state, spec);
+  if (f == nullptr) return;
+  constexpr int kWbmBlock = 24, kKdlBlock = 2;  // timed cycles per block (about 50 and 80 us)
+  using Clock = std::chrono::steady_clock;
+  static std::vector<float> wbm_ns, kdl_ns;
+  const std::size_t capacity = std::size_t{1} << 20;
+  wbm_ns.reserve(capacity);
+  kdl_ns.reserve(capacity);
+  wbm_ns.clear();
+  kdl_ns.clear();
+  const double overhead = timer_overhead_ns();
+  std::uint32_t flags = 0;
+  auto time_one = [&](auto&& cycle, std::vector<float>* samples) {
+    const Clock::time_point t0 = Clock::now();
+    cycle();
+    const Clock::time_point t1 = Clock::now();
+    const double ns = std::max(0.0, std::chrono::duration<double, std::nano>(t1 - t0).count() - overhead);
+    if (samples != nullptr && samples->size() < samples->capacity()) samples->push_back(static_cast<float>(ns));
+    return ns;
+  };
+  for (auto _ : state) {
+    double round_ns = 0.0;
+    for (int i = 0; i <= kWbmBlock; ++i) {
+      f->next_wbm_targets();
+      round_ns += time_one([&] { flags |= f->controller->update(f->command, kDt).flags; }, i > 0 ? &wbm_ns : nullptr);
+    }
+    for (int i = 0; i <= kKdlBlock; ++i) {
+      f->kdl.next_targets();
+      round_ns += time_one([&] { f->kdl.cycle(kDt); }, i > 0 ? &kdl_ns : nullptr);
+    }
+    state.SetIterationTime(round_ns * 1e-9);
+  }
+  if ((flags & (static_cast<std::uint32_t>(wbm::kInvalidCommand) | wbm::kInvalidInput)) != 0)
+    state.SkipWithError("controller cycle failed");
+  if (!f->kdl.q.data.allFinite()) state.SkipWithError("KDL wdls produced NaN");
+  const double wbm_p50 = sample_percentile(wbm_ns, 0.5), kdl_p50 = sample_percentile(kdl_ns, 0.5);
+  set_percentile_counters(state, wbm_ns);
+  state.counters["kdl_p50_us"] = kdl_p50 * 1e-3;
+  state.counters["ratio"] = wbm_p50 > 0.0 ? kdl_p50 / wbm_p50 : 0.0;
+}
+
 void bm_kdl_wdls_cycle(benchmark::State& state, const FixtureSpec* spec) {
   if (Fixture* f = get(state, spec)) kdl_wdls_cycle(state, f->kdl);
 }

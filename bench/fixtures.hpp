@@ -90,6 +90,12 @@ void bm_kdl_wdls_urdf_cycle(benchmark::State& state, const FixtureSpec* spec);
 /// KDL's wdls cycle on wbm's whole tree with cold caches, as bm_wbm_cycle_cold.
 void bm_kdl_wdls_cycle_cold(benchmark::State& state, const FixtureSpec* spec);
 void bm_kdl_arm_cycle(benchmark::State& state, const FixtureSpec* spec);
+/// (b) against (c) paired: rounds of 24 wbm cycles and 2 KDL wdls cycles (same tree),
+/// alternating, each cycle timed on its own and the first of each block untimed (it runs
+/// after the other solver's code and data). A slow spell of the machine (seconds) then hits
+/// both alike, so the ratio of the two medians (counter `ratio`; `p50_us`/`p99_us` are wbm's,
+/// `kdl_p50_us` KDL's) moves less from run to run than that of the separate benchmarks.
+void bm_wbm_vs_kdl_wdls_paired(benchmark::State& state, const FixtureSpec* spec);
 
 /// Stages of one controller cycle, timed alone with the library's public functions on
 /// states recorded from the fixture's moving-target run (where the cycle's time goes).
