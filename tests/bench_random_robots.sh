@@ -10,21 +10,16 @@
 set -euo pipefail
 build_dir="$1"
 work="$2"
-rm -rf "$work"
-mkdir -p "$work"
-fail() { echo "bench_random_robots: $*" >&2; exit 1; }
-run() {  # name base seed flags...
-  local name="$1" base="$2" seed="$3"
-  shift 3
-  python3 tests/random_robot.py "$base" "$seed" "$work/$name.urdf"
-  local rc=0
-  BUILD_DIR="$build_dir" scripts/bench.sh "$work/$name.urdf" "$@" -- --benchmark_min_time=0.002 \
-    >"$work/$name.txt" 2>&1 || rc=$?
-  [[ $rc -eq 0 ]] || { cat "$work/$name.txt"; fail "$name (seed $seed): exit $rc"; }
-  grep -q "^Your robot ($work/$name.urdf, [0-9]* rows): the wbm cycle takes" "$work/$name.txt" ||
-    { cat "$work/$name.txt"; fail "$name (seed $seed): no summary"; }
-  echo "$name (seed $seed): $(grep -c '^  WARNING' "$work/$name.txt" || true) warnings"
+test_name=bench_random_robots
+check_variant() {  # urdf output flags...
+  local urdf="$1" output="$2" rc=0
+  shift 2
+  BUILD_DIR="$build_dir" scripts/bench.sh "$urdf" "$@" -- --benchmark_min_time=0.002 >"$output" 2>&1 || rc=$?
+  [[ $rc -eq 0 ]] || { echo "exit $rc"; return 1; }
+  grep -q "^Your robot ($urdf, [0-9]* rows): the wbm cycle takes" "$output" || { echo "no summary"; return 1; }
+  echo "$(grep -c '^  WARNING' "$output" || true) warnings"
 }
+source tests/random_robot_runs.sh
 for seed in 3 9; do
   run "dual_arm_$seed" models/dual_arm/dual_arm.urdf "$seed" --hands left_tool,right_tool --fixed-base
 done

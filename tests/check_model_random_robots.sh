@@ -10,20 +10,16 @@
 set -euo pipefail
 build_dir="$1"
 work="$2"
-rm -rf "$work"
-mkdir -p "$work"
-fail() { echo "check_model_random_robots: $*" >&2; exit 1; }
-run() {  # name base seed flags...
-  local name="$1" base="$2" seed="$3"
-  shift 3
-  python3 tests/random_robot.py "$base" "$seed" "$work/$name.urdf"
-  local rc=0
-  scripts/check_model.sh "$work/$name.urdf" "$@" --build-dir "$build_dir" >"$work/$name.txt" 2>&1 || rc=$?
-  [[ $rc -eq 0 ]] || { cat "$work/$name.txt"; fail "$name (seed $seed): exit $rc"; }
-  grep -Eq '^(1[6-9]|[2-9][0-9]) passed, [0-9]+ skipped, 0 failed$' "$work/$name.txt" ||
-    { cat "$work/$name.txt"; fail "$name (seed $seed): summary"; }
-  echo "$name (seed $seed): $(tail -1 "$work/$name.txt")"
+test_name=check_model_random_robots
+check_variant() {  # urdf output flags...
+  local urdf="$1" output="$2" rc=0
+  shift 2
+  scripts/check_model.sh "$urdf" "$@" --build-dir "$build_dir" >"$output" 2>&1 || rc=$?
+  [[ $rc -eq 0 ]] || { echo "exit $rc"; return 1; }
+  grep -Eq '^(1[6-9]|[2-9][0-9]) passed, [0-9]+ skipped, 0 failed$' "$output" || { echo "summary"; return 1; }
+  tail -1 "$output"
 }
+source tests/random_robot_runs.sh
 for seed in 1 3; do
   run "h1_$seed" models/third_party/unitree_h1/h1.urdf "$seed" --hands left_elbow_link,right_elbow_link \
     --head d435_rgb_module_link --legs left_hip_yaw_link,right_hip_yaw_link
