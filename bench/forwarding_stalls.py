@@ -29,7 +29,7 @@ import tempfile
 
 
 def fail(message, status=2):
-    print(f"forwarding_stalls.py: {message}", file=sys.stderr)
+    print(f"{os.path.basename(sys.argv[0])}: {message}", file=sys.stderr)
     sys.exit(status)
 
 
@@ -86,6 +86,26 @@ def locate(binary, offsets):
     return places
 
 
+def trace_cycles(build_dir, model, cycles, scratch):
+    """Runs bench/trace_cycle MODEL CYCLES under lackey into scratch/trace; returns the trace's
+    path, the library's path and load address, and the marker's and the planted function's
+    addresses. Exits with a message if the program is missing or fails."""
+    program = os.path.join(build_dir, "bench", "trace_cycle")
+    if not os.path.exists(program):
+        fail(f"{program} not found: build the target trace_cycle (cmake --build {build_dir} --target trace_cycle)")
+    trace_path = os.path.join(scratch, "trace")
+    print(f"tracing {cycles} cycles of {model} under lackey ...", file=sys.stderr, flush=True)
+    run = subprocess.run(["valgrind", "--tool=lackey", "--trace-mem=yes", f"--log-file={trace_path}", program,
+                          model, str(cycles)], capture_output=True, text=True)
+    if run.returncode != 0:
+        fail(f"trace_cycle failed (exit {run.returncode}): {run.stderr.strip()}", 1)
+    found = re.search(r"library (\S+) base (0x[0-9a-f]+) marker (0x[0-9a-f]+) planted (0x[0-9a-f]+)", run.stdout)
+    if not found:
+        fail(f"trace_cycle printed no addresses: {run.stdout.strip()}", 1)
+    return (trace_path, found.group(1), int(found.group(2), 16), int(found.group(3), 16),
+            int(found.group(4), 16))
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("build_dir")
@@ -98,21 +118,8 @@ def main():
     args = parser.parse_args()
     if args.cycles <= args.skip:
         fail(f"--cycles ({args.cycles}) must exceed --skip ({args.skip})")
-    program = os.path.join(args.build_dir, "bench", "trace_cycle")
-    if not os.path.exists(program):
-        fail(f"{program} not found: build the target trace_cycle (cmake --build {args.build_dir} --target trace_cycle)")
     with tempfile.TemporaryDirectory() as scratch:
-        trace_path = os.path.join(scratch, "trace")
-        print(f"tracing {args.cycles} cycles of {args.model} under lackey ...", file=sys.stderr, flush=True)
-        run = subprocess.run(["valgrind", "--tool=lackey", "--trace-mem=yes", f"--log-file={trace_path}", program,
-                              args.model, str(args.cycles)], capture_output=True, text=True)
-        if run.returncode != 0:
-            fail(f"trace_cycle failed (exit {run.returncode}): {run.stderr.strip()}", 1)
-        found = re.search(r"library (\S+) base (0x[0-9a-f]+) marker (0x[0-9a-f]+) planted (0x[0-9a-f]+)", run.stdout)
-        if not found:
-            fail(f"trace_cycle printed no addresses: {run.stdout.strip()}", 1)
-        library, base = found.group(1), int(found.group(2), 16)
-        marker, planted = int(found.group(3), 16), int(found.group(4), 16)
+        trace_path, library, base, marker, planted = trace_cycles(args.build_dir, args.model, args.cycles, scratch)
         print(f"analysing cycles {args.skip + 1}-{args.cycles} ...", file=sys.stderr, flush=True)
         flagged, cycles = analyse(trace_path, marker, args.skip, args.stores, args.window)
     if cycles == 0:
