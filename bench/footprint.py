@@ -16,7 +16,6 @@ Self-check: the trace program's planted function runs once per cycle, so its cod
 among every cycle's lines (exit 1 otherwise). Standard library only; needs valgrind and
 binutils (addr2line).
 """
-import argparse
 import collections
 import os
 import statistics
@@ -24,7 +23,7 @@ import sys
 import tempfile
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from forwarding_stalls import fail, locate, trace_cycles  # noqa: E402
+from forwarding_stalls import fail, locate, records, trace_arguments, trace_cycles  # noqa: E402
 
 LINE = 64
 
@@ -49,29 +48,24 @@ def cache_size(kind):
 
 
 def analyse(trace_path, marker, skip):
-    """Per analysed cycle (code lines, data lines); and for the last one, each data line's
-    first toucher (instruction address) and the set of code lines."""
+    """Per analysed cycle: its code lines (a set) and its data lines (line -> the address of
+    the instruction that touched it first in the cycle)."""
     per_cycle = []
     code, data = set(), {}
     markers = 0
     current = 0
-    with open(trace_path, "rb") as trace:
-        for line in trace:
-            if line.startswith(b"I "):
-                current = int(line[3:].split(b",")[0], 16)
-                if current == marker:
-                    if markers > skip:
-                        per_cycle.append((code, data))
-                    markers += 1
-                    code, data = set(), {}
-                code.add(current // LINE)
-                continue
-            if len(line) < 4 or line[0:1] != b" ":
-                continue
-            address_text, size_text = line[3:].split(b",")
-            address, size = int(address_text, 16), int(size_text)
-            for data_line in (address // LINE, (address + size - 1) // LINE):
-                data.setdefault(data_line, current)
+    for kind, address, size in records(trace_path):
+        if kind == b"I":
+            current = address
+            if current == marker:
+                if markers > skip:
+                    per_cycle.append((code, data))
+                markers += 1
+                code, data = set(), {}
+            code.add(current // LINE)
+            continue
+        for data_line in (address // LINE, (address + size - 1) // LINE):
+            data.setdefault(data_line, current)
     return per_cycle  # the part after the last marker is not a whole cycle
 
 
@@ -89,13 +83,7 @@ def regions(data_lines, gap=4):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("build_dir")
-    parser.add_argument("model", nargs="?", default="paper")
-    parser.add_argument("--cycles", type=int, default=12, help="cycles run (default 12)")
-    parser.add_argument("--skip", type=int, default=4, help="cycles not analysed at the start (default 4)")
-    parser.add_argument("--top", type=int, default=15, help="regions and functions listed (default 15)")
-    args = parser.parse_args()
+    args = trace_arguments(__doc__.split("\n\n")[0], 12, 4, 15, "regions and functions").parse_args()
     if args.cycles <= args.skip + 1:
         fail(f"--cycles ({args.cycles}) must exceed --skip ({args.skip}) by at least 2")
     with tempfile.TemporaryDirectory() as scratch:

@@ -33,6 +33,19 @@ def fail(message, status=2):
     sys.exit(status)
 
 
+def records(trace_path):
+    """The records of a lackey trace: (b"I", address, length) for an instruction executed,
+    (b"L" | b"S" | b"M", address, size) for a load, store or modify."""
+    with open(trace_path, "rb") as trace:
+        for line in trace:
+            if line.startswith(b"I "):
+                address_text, size_text = line[3:].split(b",")
+                yield b"I", int(address_text, 16), int(size_text)
+            elif len(line) >= 4 and line[0:1] == b" ":
+                address_text, size_text = line[3:].split(b",")
+                yield line[1:2], int(address_text, 16), int(size_text)
+
+
 def analyse(trace_path, marker, skip, stores_kept, window):
     """Flag counts per load instruction address, and the number of cycles analysed."""
     stores = collections.deque()
@@ -40,32 +53,26 @@ def analyse(trace_path, marker, skip, stores_kept, window):
     instruction = 0
     current = 0
     markers = 0
-    with open(trace_path, "rb") as trace:
-        for line in trace:
-            if line.startswith(b"I "):
-                current = int(line[3:].split(b",")[0], 16)
-                instruction += 1
-                if current == marker:
-                    markers += 1
-                continue
-            if len(line) < 4 or line[0:1] != b" ":
-                continue
-            kind = line[1:2]
-            address_text, size_text = line[3:].split(b",")
-            address, size = int(address_text, 16), int(size_text)
-            if kind in (b"L", b"M") and markers > skip:
-                for store_address, store_size, store_instruction in reversed(stores):
-                    if instruction - store_instruction > window:
-                        break
-                    if store_address < address + size and address < store_address + store_size:
-                        inside = store_address <= address and address + size <= store_address + store_size
-                        if not inside:
-                            flagged[current] += 1
-                        break
-            if kind in (b"S", b"M"):
-                stores.append((address, size, instruction))
-                if len(stores) > stores_kept:
-                    stores.popleft()
+    for kind, address, size in records(trace_path):
+        if kind == b"I":
+            current = address
+            instruction += 1
+            if current == marker:
+                markers += 1
+            continue
+        if kind in (b"L", b"M") and markers > skip:
+            for store_address, store_size, store_instruction in reversed(stores):
+                if instruction - store_instruction > window:
+                    break
+                if store_address < address + size and address < store_address + store_size:
+                    inside = store_address <= address and address + size <= store_address + store_size
+                    if not inside:
+                        flagged[current] += 1
+                    break
+        if kind in (b"S", b"M"):
+            stores.append((address, size, instruction))
+            if len(stores) > stores_kept:
+                stores.popleft()
     return flagged, max(markers - skip, 0)
 
 
@@ -106,13 +113,20 @@ def trace_cycles(build_dir, model, cycles, scratch):
             int(found.group(4), 16))
 
 
-def main():
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def trace_arguments(description, cycles, skip, top, listed):
+    """The arguments of a script that analyses trace_cycle: BUILD_DIR [MODEL_ID] --cycles
+    --skip --top, with these defaults (`listed`: what --top counts)."""
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument("build_dir")
     parser.add_argument("model", nargs="?", default="paper")
-    parser.add_argument("--cycles", type=int, default=130, help="cycles run (default 130)")
-    parser.add_argument("--skip", type=int, default=100, help="cycles not analysed at the start (default 100)")
-    parser.add_argument("--top", type=int, default=25, help="load instructions listed (default 25)")
+    parser.add_argument("--cycles", type=int, default=cycles, help=f"cycles run (default {cycles})")
+    parser.add_argument("--skip", type=int, default=skip, help=f"cycles not analysed at the start (default {skip})")
+    parser.add_argument("--top", type=int, default=top, help=f"{listed} listed (default {top})")
+    return parser
+
+
+def main():
+    parser = trace_arguments(__doc__.split("\n\n")[0], 130, 100, 25, "load instructions")
     parser.add_argument("--stores", type=int, default=64, help="stores kept (the store buffer; default 64)")
     parser.add_argument("--window", type=int, default=400, help="instructions a store is kept (default 400)")
     args = parser.parse_args()
