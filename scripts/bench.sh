@@ -3,7 +3,8 @@
 #
 #   scripts/bench.sh                      all fixtures (paper model, G1, Romeo) against KDL
 #   scripts/bench.sh --short              the same, short (a few seconds)
-#   scripts/bench.sh --scaling            scaling study; rewrites bench/results/scaling.{csv,svg,md}
+#   scripts/bench.sh --scaling            scaling study (9 short repetitions, about 5 min); rewrites
+#                                         bench/results/scaling.{csv,svg,md}
 #   scripts/bench.sh --instructions       instructions per control cycle by function (valgrind's
 #                                         callgrind; the same on every run of a build); with a
 #                                         URDF (below): on your robot
@@ -114,7 +115,12 @@ elif [[ "$mode" == "instructions" ]]; then
 elif [[ "$mode" == "scaling" ]]; then
   json="$(mktemp --suffix=.json)"
   trap 'rm -f "$json"' EXIT
-  "$bin" --benchmark_filter='^scaling/' --benchmark_out="$json" --benchmark_out_format=json "${args[@]}" "${extra[@]}"
+  # Nine short repetitions in random order, of which plot_scaling.py takes the least: the
+  # host's slow spells (seconds) slow whole repetitions (bench/README.md, "Scaling").
+  reps=(--benchmark_repetitions=9 --benchmark_min_time=0.1 --benchmark_enable_random_interleaving=true)
+  [[ $short -eq 1 ]] && reps=()
+  "$bin" --benchmark_filter='^scaling/' --benchmark_out="$json" --benchmark_out_format=json "${reps[@]}" "${args[@]}" \
+    "${extra[@]}"
   python3 bench/plot_scaling.py "$json" bench/results
 else
   "$bin" --benchmark_filter='^(paper|g1|romeo)_' "${args[@]}" "${extra[@]}"
