@@ -499,9 +499,13 @@ void print_budget(const TableReporter& rep, const FixtureSpec& f) {
   if (has_cold) std::printf("; with cold caches (other work between the cycles) %.2f / %.2f us", cold.p50_us, cold.p99_us);
   if (has_reach) std::printf("; out of reach (damped, dofs frozen at limits) %.2f / %.2f us", reach.p50_us, reach.p99_us);
   std::printf(".\n  At 1 kHz the largest p99 (%.2f us) is %.2f %% of the 1 ms period", worst_p99, worst_p99 / 10.0);
+  // The ratio from the interleaved runs where they ran (a slow spell of the machine hits both).
+  Result paired;
+  const bool interleaved = rep.get(f.id + "/paired/wbm_vs_kdl_wdls", paired) && paired.p50_us > 0.0;
   if (rep.get(f.id + "/kdl_wdls/cycle", kdl))
-    std::printf("; KDL's wdls on the same tree takes %.2f us (%.1fx the wbm median)", kdl.p50_us,
-                kdl.p50_us / cycle.p50_us);
+    std::printf("; KDL's wdls on the same tree takes %.2f us (%.1fx the wbm median%s)", kdl.p50_us,
+                interleaved ? paired.peer_p50_us / paired.p50_us : kdl.p50_us / cycle.p50_us,
+                interleaved ? ", the two interleaved" : "");
   std::printf(".\n  On a shared or unpinned machine the p99 values move by tens of percent; pin the run "
               "(taskset -c 1) and see bench/README.md. In a real-time loop each cycle starts cold and the "
               "machine adds its wake-up latency: scripts/bench.sh --loop 10 with the same flags measures both.\n"
