@@ -12,7 +12,9 @@ the same medians (the least over repetitions). Standard library only.
 import csv
 import json
 import os
+import subprocess
 import sys
+import tempfile
 import xml.etree.ElementTree as ET
 
 
@@ -74,20 +76,16 @@ def check_least_of_repetitions(results, rows):
     """plot_scaling.py on the same results with every run repeated 1.5x and 2x slower (as a
     slow spell of the host makes whole repetitions) must give the same medians: the least
     over the repetitions, not their median."""
-    import subprocess
-    import tempfile
     with open(results) as f:
         doc = json.load(f)
+
+    def slower(b, factor):
+        return dict(b, **{key: float(b[key]) * factor for key in ("p50_us", "p99_us", "real_time") if key in b})
+
     repeated = []
-    for b in doc["benchmarks"]:
-        repeated.append(b)
-        if b.get("run_type", "iteration") == "iteration":
-            for factor in (2.0, 1.5):
-                slow = dict(b)
-                for key in ("p50_us", "p99_us", "real_time"):
-                    if key in slow:
-                        slow[key] = float(slow[key]) * factor
-                repeated.insert(len(repeated) - 1 if factor == 2.0 else len(repeated), slow)
+    for b in doc["benchmarks"]:  # a slower repetition before and after each run
+        iteration = b.get("run_type", "iteration") == "iteration"
+        repeated += [slower(b, 2.0), b, slower(b, 1.5)] if iteration else [b]
     doc["benchmarks"] = repeated
     here = os.path.dirname(os.path.abspath(__file__))
     with tempfile.TemporaryDirectory() as scratch:

@@ -92,8 +92,7 @@ def main():
         per_cycle = analyse(trace_path, marker, args.skip)
     if not per_cycle:
         fail("no whole cycle found in the trace (the marker was not executed)", 1)
-    if not all(any(0 <= line * LINE - planted < 256 or 0 <= planted - line * LINE < LINE for line in code)
-               for code, _ in per_cycle):
+    if not all(planted // LINE in code for code, _ in per_cycle):  # its first instruction's line
         fail("the planted function's code is missing from a cycle's lines: the analysis is broken", 1)
     code_counts = [len(code) for code, _ in per_cycle]
     data_counts = [len(data) for _, data in per_cycle]

@@ -43,9 +43,9 @@ def load(path):
         # 1.5x slower; bench/README.md, "Machine") slow whole repetitions, and a point that one
         # of them hit stood out of its sweep by up to 1.9x with the median over 3 repetitions.
         for stage, values in r["stages"].items():
-            med = lambda i: min(v[i] for v in values)
+            least = lambda i: min(v[i] for v in values)
             prefix = "" if stage == "cycle" else stage + "_"
-            r[prefix + "p50_us"], r[prefix + "p99_us"], r[prefix + "mean_us"] = med(0), med(1), med(2)
+            r[prefix + "p50_us"], r[prefix + "p99_us"], r[prefix + "mean_us"] = least(0), least(1), least(2)
             if stage == "cycle":
                 r["iterations"] = sum(v[3] for v in values)
         del r["stages"]
