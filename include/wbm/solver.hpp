@@ -136,8 +136,11 @@ class WholeBodySolver {
   static constexpr double kDampingFactorStep = 4.0;
   static constexpr double kMaxDampingFactor = 256.0;
 
-  /// Weighted (damped, as in solve) pseudo-inverse J# (nq x m) for analysis and tests.
-  /// Allocates: not for the real-time cycle.
+  /// Weighted (damped, as in solve) pseudo-inverse J# (nq x m) for analysis and tests:
+  /// column k is solve()'s q_dot_task for x_dot = e_k. At sigma_min >= singular_threshold
+  /// no column is damped (J J# = I); below it each column's damping follows that solve's
+  /// estimate, which also bounds sigma_min by the right-hand side (|b| / |A^-1 b|), so the
+  /// columns may differ in damping. Allocates: not for the real-time cycle.
   Eigen::MatrixXd pseudo_inverse(const Eigen::MatrixXd& J, const Mask& free_dofs);
 
  private:
