@@ -7,6 +7,7 @@
 #include <limits>
 #include <memory>
 #include <random>
+#include <sstream>
 
 #include <gtest/gtest.h>
 
@@ -115,27 +116,40 @@ void converge(const wbm_test::ShippedModel& entry, unsigned seed, int targets) {
     c.reset(entry.start(model));
     Command cmd = standing_command(entry, model, c);
     cmd.targets << L.p, L.R.col(2), R.p, R.R.col(2);
-    double pos = 0, ang = 0;
+    constexpr int kCycles = 4000, kLastSeconds = 2;
+    constexpr double kDt = 0.002;
+    double pos = 0, ang = 0, pos_before_last = 0, start_pos = 0;
     wbm_test::AllocationCounter counter;
-    for (int k = 0; k < 4000; ++k) {
-      c.update(cmd, 0.002);
+    for (int k = 0; k < kCycles; ++k) {
+      c.update(cmd, kDt);
       pos = std::max((c.values().segment<3>(0) - L.p).norm(), (c.values().segment<3>(6) - R.p).norm());
       auto angle = [](const Vector3& a, const Vector3& b) { return std::atan2(a.cross(b).norm(), a.dot(b)); };
       ang = std::max(angle(c.values().segment<3>(3), L.R.col(2)), angle(c.values().segment<3>(9), R.R.col(2)));
+      if (k == 0) start_pos = pos;
+      if (k == kCycles - 1 - static_cast<int>(kLastSeconds / kDt)) pos_before_last = pos;
       if (k > 200 && pos < 1e-4 && ang < 0.1 * M_PI / 180) break;
     }
     EXPECT_EQ(counter.count(), 0) << entry.id << " target " << t;
-    // Not reached: say which free dofs ended at a limit. Where they block every way down the
-    // task error, it is a local minimum of the velocity-level scheme (docs/solver.md), not a
-    // wrong Jacobian or solve.
+    // Not reached: say which free dofs ended at a limit, how far the hands came in the last
+    // seconds and how the last solve went. Dofs at limits that block every way down the task
+    // error: a local minimum of the velocity-level scheme (docs/solver.md), not a wrong
+    // Jacobian or solve. Still approaching, damped near a singularity with the task part
+    // scaled down by a speed limit: slow progress, not a stall (docs/solver.md).
     std::string at_limit;
     for (int i = 0; i < model.num_dofs(); ++i)
       if (cmd.free_dofs[i] && (c.q()[i] == model.dof(i).lower || c.q()[i] == model.dof(i).upper))
         at_limit += " " + model.dof(i).name;
+    const SolverOutput& last = c.solver().output();
+    std::ostringstream progress;
+    progress << "hand position error " << start_pos << " m at the start, " << pos_before_last << " m " << kLastSeconds
+             << " s before the end, " << pos << " m at the end; the last solve: sigma_min "
+             << last.min_singular_value << ", damping " << last.damping << ", task part scaled by "
+             << last.task_scale << " (speed limits)";
     const std::string context = entry.id + " target " + std::to_string(t) + "\nq_target = " +
                                 wbm_test::describe_configuration(model, q_target) +
                                 "\nq_final  = " + wbm_test::describe_configuration(model, c.q()) +
-                                "\nfree dofs at a limit:" + (at_limit.empty() ? " none" : at_limit);
+                                "\nfree dofs at a limit:" + (at_limit.empty() ? " none" : at_limit) + "\n" +
+                                progress.str();
     EXPECT_LT(pos, 1e-4) << context;
     EXPECT_LT(ang * 180 / M_PI, 0.1) << context;
   }
