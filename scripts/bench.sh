@@ -99,7 +99,7 @@ if [[ -n "$urdf" ]]; then
   urdf=$(caller_path "$urdf")
   [[ -f "$urdf" ]] || { echo "bench.sh: no such file: $urdf" >&2; exit 2; }
   # Without --hands, bench_wbm says so and lists the ends of the robot's arms.
-  printf '%s\n' "${own[@]}" | grep -q -- '--wbm_hands=' || exec "$bin" "--wbm_urdf=$urdf" "${own[@]}"
+  has_prefix --wbm_hands= "${own[@]}" || exec "$bin" "--wbm_urdf=$urdf" "${own[@]}"
   [[ ${#loop[@]} -eq 0 ]] || run_loop "--wbm_urdf=$urdf" "${own[@]}" --wbm_id=custom
   if [[ "$mode" == "instructions" ]]; then
     exec python3 bench/count_instructions.py "$bin" custom -- "--wbm_urdf=$urdf" "${own[@]}" --wbm_id=custom "${extra[@]}"

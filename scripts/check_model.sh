@@ -54,7 +54,7 @@ done
 [[ -n "$urdf" ]] || { echo "check_model.sh: a URDF file is required (see --help)" >&2; exit 2; }
 urdf=$(caller_path "$urdf")
 [[ -f "$urdf" ]] || { echo "check_model.sh: no such file: $urdf" >&2; exit 2; }
-printf '%s\n' "${env_vars[@]}" | grep -q '^WBM_TEST_HANDS=' ||
+has_prefix WBM_TEST_HANDS= "${env_vars[@]}" ||
   { echo "check_model.sh: --hands LEFT,RIGHT is required (two frames, one per arm; scripts/bench.sh ROBOT.urdf lists the ends of the robot's arms)" >&2; exit 2; }
 [[ "$build_dir" == /* ]] || build_dir="$PWD/$build_dir"
 

@@ -8,7 +8,10 @@ work=$2
 mkdir -p "$work"
 json_ok() { python3 -c 'import json, sys; json.load(sys.stdin)'; }
 
-"$wbm" model info | grep -q "21 dofs"
+# Outputs captured before grep -q: piped, a grep that matches and exits before the writer is
+# done fails the pipeline under pipefail (SIGPIPE) now and then.
+info=$("$wbm" model info)
+grep -q "21 dofs" <<<"$info"
 "$wbm" model info --json | json_ok
 "$wbm" model fk --frames l_hand_ref --jacobian --json | json_ok
 "$wbm" model fk --frames l_hand_ref --jacobian --json |
@@ -16,6 +19,7 @@ json_ok() { python3 -c 'import json, sys; json.load(sys.stdin)'; }
 rm -f "$work/paper.urdf"
 "$wbm" model export -o "$work/paper.urdf"
 test -s "$work/paper.urdf"
-"$wbm" model info "$work/paper.urdf" --root upper_body --root-height 0.6 | grep -q "21 dofs"
+info=$("$wbm" model info "$work/paper.urdf" --root upper_body --root-height 0.6)
+grep -q "21 dofs" <<<"$info"
 "$wbm" model info "$work/paper.urdf" --root upper_body --root-height 0.6 --json | json_ok
 echo "cli smoke test ok"

@@ -23,6 +23,6 @@ ls "$prefix"/lib*/cmake/wbm/wbmConfig.cmake >/dev/null
 "$cmake" --build "$consumer_build" --config "$config"
 output=$("$consumer_build/wbm_consumer")
 echo "$output"
-echo "$output" | grep -q "l_hand_ref"
+grep -q "l_hand_ref" <<<"$output"
 grep -q "$prefix" "$consumer_build/CMakeCache.txt"   # wbm_DIR points into the prefix
 echo "consumer test ok"

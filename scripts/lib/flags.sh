@@ -44,6 +44,16 @@ model_flag() {
   model_key="${model_key//-/_}"
 }
 
+# has_prefix PREFIX WORD...: true if one of the WORDs starts with PREFIX. (Not `printf ... |
+# grep -q`: under pipefail that fails now and then, when grep has matched and exited before
+# printf wrote its last line; 1 run in 20,000 here.)
+has_prefix() {
+  local prefix="$1" word
+  shift
+  for word in "$@"; do [[ "$word" == "$prefix"* ]] && return 0; done
+  return 1
+}
+
 # set_urdf ARG: the robot file, the one argument that is not a flag; a second exits 2.
 set_urdf() {
   [[ -z "$urdf" ]] || { echo "$script_name: one URDF only" >&2; exit 2; }
