@@ -728,24 +728,56 @@ void Fixture::check_wbm() {
   for (int i = 0; i < ne; ++i)
     start_error[i] = element_error(motions[i].kind, c.values().segment(motions[i].t0, motions[i].n),
                                    goal.segment(motions[i].t0, motions[i].n));
-  for (int k = 0; k < 4000; ++k) {
-    const wbm::ControllerStatus status = c.update(command, kDt);
-    if (!status.ok()) throw std::runtime_error(spec.id + ": controller cycle failed while converging");
+  // 4 s; on your robot (any --wbm_id) up to 16 s more while the errors still fall by a
+  // tenth per second: a goal far from the start (a random dual-arm variant's grasp axis
+  // 1.8 rad away) takes the filters' speed limits longer than 4 s. The fixtures converge
+  // within the 4 s, and their check stays as it was.
+  wbm::ControllerStatus last;
+  double worst_position = 0.0, worst_angle = 0.0, start_position = 0.0, start_angle = 0.0;
+  auto run_and_measure = [&](int cycles) {
+    for (int k = 0; k < cycles; ++k) {
+      last = c.update(command, kDt);
+      if (!last.ok()) throw std::runtime_error(spec.id + ": controller cycle failed while converging");
+    }
+    worst_position = worst_angle = 0.0;
+    for (int i = 0; i < ne; ++i) {
+      const Motion& m = motions[i];
+      error[i] = element_error(m.kind, c.values().segment(m.t0, m.n), goal.segment(m.t0, m.n));
+      const bool angle = m.kind == Motion::Kind::kDirection || m.kind == Motion::Kind::kJoint;
+      double& worst = angle ? worst_angle : worst_position;
+      double& at_start = angle ? start_angle : start_position;
+      worst = std::max(worst, error[i]);
+      at_start = std::max(at_start, start_error[i]);
+    }
+    return worst_position < 2e-3 && worst_angle < 2e-2;
+  };
+  bool converged = run_and_measure(4000);
+  int seconds = 4;
+  while (spec.user_robot && !converged && seconds < 20) {
+    const double position_before = worst_position, angle_before = worst_angle;
+    converged = run_and_measure(500);
+    ++seconds;
+    const bool falling = (worst_position >= 2e-3 && worst_position <= 0.9 * position_before) ||
+                         (worst_angle >= 2e-2 && worst_angle <= 0.9 * angle_before);
+    if (!converged && !falling) break;
   }
-  double worst_position = 0.0, worst_angle = 0.0, largest_start = 0.0;
-  for (int i = 0; i < ne; ++i) {
-    const Motion& m = motions[i];
-    error[i] = element_error(m.kind, c.values().segment(m.t0, m.n), goal.segment(m.t0, m.n));
-    if (m.kind == Motion::Kind::kDirection || m.kind == Motion::Kind::kJoint)
-      worst_angle = std::max(worst_angle, error[i]);
-    else
-      worst_position = std::max(worst_position, error[i]);
-    largest_start = std::max(largest_start, start_error[i]);
+  const double largest_start = std::max(start_position, start_angle);
+  note(spec.id + ": wbm converges to the task values of a reachable configuration in " + std::to_string(seconds) +
+       " s: error " + fmt("%.2g m / %.2g rad (largest start error %.3g)", worst_position, worst_angle, largest_start));
+  // Where it stops short, the failure says how far and how the last cycle went: near a
+  // singularity or against joint limits the velocity-level scheme meets a goal slowly or
+  // not at all (a local minimum on this robot, docs/solver.md); free of those, a defect or a
+  // goal still too far after 20 s.
+  if (!converged) {
+    const bool blocked = last.has(wbm::kDamped) || last.has(wbm::kDofAtLimitFrozen) || last.has(wbm::kDofBraked) ||
+                         last.has(wbm::kTaskSpeedLimited);
+    throw std::runtime_error(spec.id + ": wbm controller did not converge (" +
+                             fmt("%.2g m / %.2g rad after ", worst_position, worst_angle) + std::to_string(seconds) +
+                             fmt(" s, from %.3g m / %.3g rad; ", start_position, start_angle) +
+                             (blocked ? "the last cycle damped, at a limit or speed-limited: see docs/solver.md on "
+                                        "local minima)"
+                                      : "the last cycle free of singularities and limits)"));
   }
-  note(spec.id + ": wbm converges to the task values of a reachable configuration in 4 s: error " +
-       fmt("%.2g m / %.2g rad (largest start error %.3g)", worst_position, worst_angle, largest_start));
-  if (!(worst_position < 2e-3 && worst_angle < 2e-2))
-    throw std::runtime_error(spec.id + ": wbm controller did not converge");
 
   // 2. Moves: track the moving targets; every cycle does filters, FK, Jacobians, solve, limits.
   for (Motion& m : motions) {

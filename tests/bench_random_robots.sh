@@ -6,6 +6,9 @@
 # not, KDL agrees on the same tree) and print its summary. The dual-arm variants of seeds 3
 # and 9 reach joint limits in 8-18 % of the moving cycles and trail their targets by 8 and
 # 20 mm: they failed the tracking check (no benchmark at all) before it allowed for that.
+# The dual-arm variant of seed 63 starts 1.8 rad from its goal's grasp axis, which the
+# filters' speed limits turn in 5 s: it failed the 4 s convergence check before that check
+# gave a user's robot more time while the errors still fall.
 #   bench_random_robots.sh BUILD_DIR WORK_DIR
 set -euo pipefail
 build_dir="$1"
@@ -20,7 +23,7 @@ check_variant() {  # urdf output flags...
   echo "$(grep -c '^  WARNING' "$output" || true) warnings"
 }
 source tests/random_robot_runs.sh
-for seed in 3 9; do
+for seed in 3 9 63; do
   run "dual_arm_$seed" models/dual_arm/dual_arm.urdf "$seed" --hands left_tool,right_tool --fixed-base
 done
 run g1_5 models/third_party/unitree_g1/g1_29dof.urdf 5 --hands left_rubber_hand,right_rubber_hand --head d435_link \
