@@ -109,6 +109,12 @@ struct Motion {
   }
 };
 
+/// A cycle that took one of the paths where the task is not met at full speed: damped near a
+/// singularity, a dof frozen at or braked before a limit, the task part speed-limited.
+bool limited_cycle(const wbm::ControllerStatus& s) {
+  return s.has(wbm::kDamped) || s.has(wbm::kDofAtLimitFrozen) || s.has(wbm::kDofBraked) || s.has(wbm::kTaskSpeedLimited);
+}
+
 /// Error of one element's value against a target, in its own units ([m] or [rad]).
 double element_error(Motion::Kind kind, const VectorXd& value, const VectorXd& target) {
   if (kind == Motion::Kind::kDirection) {
@@ -716,7 +722,6 @@ VectorXd Fixture::goal_configuration() const {
 
 void Fixture::check_wbm() {
   wbm::Controller& c = *controller;
-  const int ne = static_cast<int>(motions.size());
   // 1. Converges: targets = the task values of a reachable configuration.
   const VectorXd q_goal = goal_configuration();
   wbm::forward_kinematics(*model, *kin_data, q_goal);
@@ -724,31 +729,28 @@ void Fixture::check_wbm() {
   VectorXd goal(kin_stack->num_targets());
   kin_stack->values(*model, *kin_data, goal);
   command.targets = goal;
-  std::vector<double> start_error(ne), error(ne);
-  for (int i = 0; i < ne; ++i)
-    start_error[i] = element_error(motions[i].kind, c.values().segment(motions[i].t0, motions[i].n),
-                                   goal.segment(motions[i].t0, motions[i].n));
+  // The largest position [m] and angle [rad] error of the elements to the goal.
+  auto worst_errors = [&](double& position, double& angle) {
+    position = angle = 0.0;
+    for (const Motion& m : motions) {
+      const double e = element_error(m.kind, c.values().segment(m.t0, m.n), goal.segment(m.t0, m.n));
+      double& worst = m.kind == Motion::Kind::kDirection || m.kind == Motion::Kind::kJoint ? angle : position;
+      worst = std::max(worst, e);
+    }
+  };
+  double start_position = 0.0, start_angle = 0.0, worst_position = 0.0, worst_angle = 0.0;
+  worst_errors(start_position, start_angle);
   // 4 s; on your robot (any --wbm_id) up to 16 s more while the errors still fall by a
   // tenth per second: a goal far from the start (a random dual-arm variant's grasp axis
   // 1.8 rad away) takes the filters' speed limits longer than 4 s. The fixtures converge
   // within the 4 s, and their check stays as it was.
   wbm::ControllerStatus last;
-  double worst_position = 0.0, worst_angle = 0.0, start_position = 0.0, start_angle = 0.0;
   auto run_and_measure = [&](int cycles) {
     for (int k = 0; k < cycles; ++k) {
       last = c.update(command, kDt);
       if (!last.ok()) throw std::runtime_error(spec.id + ": controller cycle failed while converging");
     }
-    worst_position = worst_angle = 0.0;
-    for (int i = 0; i < ne; ++i) {
-      const Motion& m = motions[i];
-      error[i] = element_error(m.kind, c.values().segment(m.t0, m.n), goal.segment(m.t0, m.n));
-      const bool angle = m.kind == Motion::Kind::kDirection || m.kind == Motion::Kind::kJoint;
-      double& worst = angle ? worst_angle : worst_position;
-      double& at_start = angle ? start_angle : start_position;
-      worst = std::max(worst, error[i]);
-      at_start = std::max(at_start, start_error[i]);
-    }
+    worst_errors(worst_position, worst_angle);
     return worst_position < 2e-3 && worst_angle < 2e-2;
   };
   bool converged = run_and_measure(4000);
@@ -769,12 +771,10 @@ void Fixture::check_wbm() {
   // not at all (a local minimum on this robot, docs/solver.md); free of those, a defect or a
   // goal still too far after 20 s.
   if (!converged) {
-    const bool blocked = last.has(wbm::kDamped) || last.has(wbm::kDofAtLimitFrozen) || last.has(wbm::kDofBraked) ||
-                         last.has(wbm::kTaskSpeedLimited);
     throw std::runtime_error(spec.id + ": wbm controller did not converge (" +
                              fmt("%.2g m / %.2g rad after ", worst_position, worst_angle) + std::to_string(seconds) +
                              fmt(" s, from %.3g m / %.3g rad; ", start_position, start_angle) +
-                             (blocked ? "the last cycle damped, at a limit or speed-limited: see docs/solver.md on "
+                             (limited_cycle(last) ? "the last cycle damped, at a limit or speed-limited: see docs/solver.md on "
                                         "local minima)"
                                       : "the last cycle free of singularities and limits)"));
   }
@@ -800,8 +800,7 @@ void Fixture::check_wbm() {
     if (record) solves.record(c, status);
     damped += status.has(wbm::kDamped);
     frozen += status.has(wbm::kDofAtLimitFrozen);
-    limited += status.has(wbm::kDamped) || status.has(wbm::kDofAtLimitFrozen) || status.has(wbm::kDofBraked) ||
-               status.has(wbm::kTaskSpeedLimited);
+    limited += limited_cycle(status);
     overdetermined += status.has(wbm::kOverdetermined);
     scaled += status.has(wbm::kNullSpaceSpeedScaled) || status.has(wbm::kNullSpaceJerkLimited) ||
               status.has(wbm::kTaskSpeedLimited);
