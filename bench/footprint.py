@@ -9,7 +9,9 @@ evicts part of itself and fetches it again from L2 in the next cycle: that cost 
 no stage timed alone (bench/README.md, "Inside the cycle the stages cost more than
 alone"). For the last cycle analysed it lists the data in contiguous regions (arrays and
 objects: gaps of at most 4 lines joined), each with the functions that touch it first in
-the cycle, and the code lines per function.
+the cycle, and the code lines per function. It also counts the distinct instructions a cycle
+executes (the trace program's own few hundred included): the core's op cache holds a few
+thousand decoded instructions, and code it no longer holds is decoded again.
 
 Usage: footprint.py BUILD_DIR [MODEL_ID] [--cycles N] [--skip K] [--top T]
 Self-check: the trace program's planted function runs once per cycle, so its code must be
@@ -48,10 +50,11 @@ def cache_size(kind):
 
 
 def analyse(trace_path, marker, skip):
-    """Per analysed cycle: its code lines (a set) and its data lines (line -> the address of
-    the instruction that touched it first in the cycle)."""
+    """Per analysed cycle: its code lines (a set), its data lines (line -> the address of the
+    instruction that touched it first in the cycle), its distinct instructions (address ->
+    length in bytes) and the number of instructions it executed."""
     per_cycle = []
-    code, data = set(), {}
+    code, data, instructions, executed = set(), {}, {}, 0
     markers = 0
     current = 0
     for kind, address, size in records(trace_path):
@@ -59,10 +62,12 @@ def analyse(trace_path, marker, skip):
             current = address
             if current == marker:
                 if markers > skip:
-                    per_cycle.append((code, data))
+                    per_cycle.append((code, data, instructions, executed))
                 markers += 1
-                code, data = set(), {}
+                code, data, instructions, executed = set(), {}, {}, 0
             code.add(current // LINE)
+            instructions[current] = size
+            executed += 1
             continue
         for data_line in (address // LINE, (address + size - 1) // LINE):
             data.setdefault(data_line, current)
@@ -92,10 +97,16 @@ def main():
         per_cycle = analyse(trace_path, marker, args.skip)
     if not per_cycle:
         fail("no whole cycle found in the trace (the marker was not executed)", 1)
-    if not all(planted // LINE in code for code, _ in per_cycle):  # its first instruction's line
+    if not all(planted // LINE in cycle[0] for cycle in per_cycle):  # its first instruction's line
         fail("the planted function's code is missing from a cycle's lines: the analysis is broken", 1)
-    code_counts = [len(code) for code, _ in per_cycle]
-    data_counts = [len(data) for _, data in per_cycle]
+    for code, _, instructions, executed_count in per_cycle:  # instructions within their lines
+        if not (len(instructions) <= executed_count and sum(instructions.values()) <= len(code) * LINE):
+            fail("a cycle's distinct instructions do not fit its executed count or its code lines: the analysis is broken", 1)
+    code_counts = [len(cycle[0]) for cycle in per_cycle]
+    data_counts = [len(cycle[1]) for cycle in per_cycle]
+    distinct = statistics.median(len(cycle[2]) for cycle in per_cycle)
+    distinct_bytes = statistics.median(sum(cycle[2].values()) for cycle in per_cycle)
+    executed = statistics.median(cycle[3] for cycle in per_cycle)
     l1d, l1i = cache_size("Data"), cache_size("Instruction")
 
     def against(count, size):
@@ -104,9 +115,13 @@ def main():
     code_median, data_median = statistics.median(code_counts), statistics.median(data_counts)
     print(f"{args.model}: per cycle (median of {len(per_cycle)}) {code_median:.0f} lines of code, "
           f"{code_median * LINE / 1024:.1f} KiB{against(code_median, l1i)}; {data_median:.0f} lines of data, "
-          f"{data_median * LINE / 1024:.1f} KiB{against(data_median, l1d)}")
+          f"{data_median * LINE / 1024:.1f} KiB{against(data_median, l1d)}; {distinct:.0f} distinct instructions "
+          f"({distinct_bytes / 1024:.1f} KiB) of {executed:.0f} executed")
+    # Code run once per cycle has to be decoded again when the core's op cache (a few thousand
+    # decoded instructions) no longer holds it: the distinct instructions, not the lines, are
+    # what competes for it (bench/README.md, "Inside the cycle the stages cost more than alone").
 
-    code, data = per_cycle[-1]
+    code, data = per_cycle[-1][:2]
     end = base + os.path.getsize(library)
     touchers = sorted({pc for pc in data.values() if base <= pc < end})
     code_in_library = sorted({line * LINE for line in code if base <= line * LINE < end})
