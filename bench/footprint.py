@@ -49,6 +49,15 @@ def cache_size(kind):
     return None
 
 
+Cycle = collections.namedtuple("Cycle", "code data instructions executed")
+
+
+def instructions_disjoint(instructions):
+    """True if no two of the instructions (address -> length) share a byte, as in compiled code."""
+    ordered = sorted(instructions.items())
+    return all(address + length <= following for (address, length), (following, _) in zip(ordered, ordered[1:]))
+
+
 def analyse(trace_path, marker, skip):
     """Per analysed cycle: its code lines (a set), its data lines (line -> the address of the
     instruction that touched it first in the cycle), its distinct instructions (address ->
@@ -62,7 +71,7 @@ def analyse(trace_path, marker, skip):
             current = address
             if current == marker:
                 if markers > skip:
-                    per_cycle.append((code, data, instructions, executed))
+                    per_cycle.append(Cycle(code, data, instructions, executed))
                 markers += 1
                 code, data, instructions, executed = set(), {}, {}, 0
             code.add(current // LINE)
@@ -97,31 +106,31 @@ def main():
         per_cycle = analyse(trace_path, marker, args.skip)
     if not per_cycle:
         fail("no whole cycle found in the trace (the marker was not executed)", 1)
-    if not all(planted // LINE in cycle[0] for cycle in per_cycle):  # its first instruction's line
+    if not all(planted // LINE in cycle.code for cycle in per_cycle):  # its first instruction's line
         fail("the planted function's code is missing from a cycle's lines: the analysis is broken", 1)
-    for code, _, instructions, executed_count in per_cycle:  # instructions within their lines
-        if not (len(instructions) <= executed_count and sum(instructions.values()) <= len(code) * LINE):
-            fail("a cycle's distinct instructions do not fit its executed count or its code lines: the analysis is broken", 1)
-    code_counts = [len(cycle[0]) for cycle in per_cycle]
-    data_counts = [len(cycle[1]) for cycle in per_cycle]
-    distinct = statistics.median(len(cycle[2]) for cycle in per_cycle)
-    distinct_bytes = statistics.median(sum(cycle[2].values()) for cycle in per_cycle)
-    executed = statistics.median(cycle[3] for cycle in per_cycle)
+    if not all(instructions_disjoint(cycle.instructions) and len(cycle.instructions) <= cycle.executed
+               for cycle in per_cycle):
+        fail("a cycle's distinct instructions overlap or outnumber its executed ones: the analysis is broken", 1)
+    code_counts = [len(cycle.code) for cycle in per_cycle]
+    data_counts = [len(cycle.data) for cycle in per_cycle]
+    distinct = statistics.median(len(cycle.instructions) for cycle in per_cycle)
+    distinct_bytes = statistics.median(sum(cycle.instructions.values()) for cycle in per_cycle)
+    executed = statistics.median(cycle.executed for cycle in per_cycle)
     l1d, l1i = cache_size("Data"), cache_size("Instruction")
 
     def against(count, size):
         return f" ({count * LINE / size:.0%} of the {size // 1024} KiB L1)" if size else ""
 
     code_median, data_median = statistics.median(code_counts), statistics.median(data_counts)
+    # Code run once per cycle has to be decoded again when the core's op cache (a few thousand
+    # decoded instructions) no longer holds it: the distinct instructions, not the lines, are
+    # what competes for it (bench/README.md, "Inside the cycle the stages cost more than alone").
     print(f"{args.model}: per cycle (median of {len(per_cycle)}) {code_median:.0f} lines of code, "
           f"{code_median * LINE / 1024:.1f} KiB{against(code_median, l1i)}; {data_median:.0f} lines of data, "
           f"{data_median * LINE / 1024:.1f} KiB{against(data_median, l1d)}; {distinct:.0f} distinct instructions "
           f"({distinct_bytes / 1024:.1f} KiB) of {executed:.0f} executed")
-    # Code run once per cycle has to be decoded again when the core's op cache (a few thousand
-    # decoded instructions) no longer holds it: the distinct instructions, not the lines, are
-    # what competes for it (bench/README.md, "Inside the cycle the stages cost more than alone").
 
-    code, data = per_cycle[-1][:2]
+    code, data = per_cycle[-1].code, per_cycle[-1].data
     end = base + os.path.getsize(library)
     touchers = sorted({pc for pc in data.values() if base <= pc < end})
     code_in_library = sorted({line * LINE for line in code if base <= line * LINE < end})
