@@ -10,6 +10,9 @@
 //                            code between two cycles, untimed: L1 and L2 evicted)
 //   <id>/wbm/cycle_out_of_reach  the same with the hand targets out of reach: the damped path
 //                            and dofs frozen at their limits (the slow paths)
+//   <id>/wbm/part/<stage>    each stage of the cycle alone (filters, fk, ..., solve, integrate)
+//   <id>/wbm/solve_after_other_code  the solve stage with 64 KiB of other code run between
+//                            two calls, untimed: its code decoded again, as inside the cycle
 //   <id>/kdl_wdls/cycle      endpoint FK, twists, TreeIkSolverVel_wdls (6 rows per endpoint), integration,
 //                            on wbm's whole tree (the same dofs, virtual ones included)
 //   <id>/kdl_wdls_urdf/cycle the same on the URDF's own tree (no virtual dofs, legs included)
@@ -457,6 +460,22 @@ void print_tables(const TableReporter& rep, const std::vector<FixtureSpec>& fixt
                 "(other load on the core, an unpinned thread, a busy VM host); run again pinned (taskset -c 1) "
                 "or with -- --benchmark_repetitions=5 (medians over the repetitions).\n");
 
+  // The solve stage with its code evicted from the op cache and the L1 instruction cache.
+  bool evicted_header = false;
+  for (const FixtureSpec& f : fixtures) {
+    const std::string alone = f.id + "/wbm/part/solve", evicted = f.id + "/wbm/solve_after_other_code";
+    Result r;
+    if (!rep.get(alone, r) || !rep.get(evicted, r)) continue;
+    if (!evicted_header) {
+      std::printf("\nThe solve stage with 64 KiB of other code run before each call (untimed): its code decoded "
+                  "again, as inside the cycle, where the other stages' code evicts it; its data still cached.\n\n"
+                  "| fixture | solve alone | solve after other code | ratio |\n|---|---|---|---|\n");
+      evicted_header = true;
+    }
+    std::printf("| %s | %s | %s | %s |\n", f.id.c_str(), cell(rep, alone).c_str(), cell(rep, evicted).c_str(),
+                ratio(rep, evicted, alone).c_str());
+  }
+
   // Goals (informational; nothing fails on timing).
   struct Goal {
     const char* id;
@@ -680,6 +699,7 @@ int main(int argc, char** argv) {
           ->MinTime(cold_min_time)
           ->Unit(benchmark::kMicrosecond);
     reg("wbm/cycle_out_of_reach", wbm_bench::bm_wbm_cycle_out_of_reach);
+    reg("wbm/solve_after_other_code", wbm_bench::bm_wbm_solve_after_other_code);
     reg("kdl_wdls/cycle", wbm_bench::bm_kdl_wdls_cycle);
     reg("paired/wbm_vs_kdl_wdls", wbm_bench::bm_wbm_vs_kdl_wdls_paired);
     reg("kdl_wdls_urdf/cycle", wbm_bench::bm_kdl_wdls_urdf_cycle);

@@ -1082,6 +1082,35 @@ std::vector<Part> all_parts() {
           Part::kAssemble, Part::kGradient, Part::kSolve, Part::kIntegrate};
 }
 
+namespace {
+
+/// 64 KiB of other code (twice the L1 instruction cache, 16,384 decoded instructions: more
+/// than the op cache holds), run untimed between timed calls.
+[[gnu::noinline]] void run_other_code() {
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__aarch64__))
+  asm volatile(".rept 16384\n nop\n nop\n nop\n nop\n .endr" ::: "memory");  // 64 KiB (x86: 1 byte per nop)
+#endif
+}
+
+/// The solve stage: WholeBodySolver::solve on the recorded states in turn, `untimed` run
+/// before each call.
+void time_solves(benchmark::State& state, Fixture& f, const std::function<void()>& untimed) {
+  const std::size_t n = f.states.size();
+  std::size_t k = 0;
+  timed_loop(
+      state,
+      [&] {
+        k = (k + 1) % n;
+        untimed();
+      },
+      [&] {
+        benchmark::DoNotOptimize(
+            f.part_solver->solve(f.solves.J[k], f.solves.xdot[k], f.state_gradient[k], f.command.free_dofs, kDt));
+      });
+}
+
+}  // namespace
+
 void bm_wbm_part(benchmark::State& state, const FixtureSpec* spec, Part part) {
   Fixture* f = get(state, spec);
   if (f == nullptr) return;
@@ -1130,10 +1159,7 @@ void bm_wbm_part(benchmark::State& state, const FixtureSpec* spec, Part part) {
       timed_loop(state, next, [&] { f->criterion->gradient(f->states[k], g); });
       break;
     case Part::kSolve:
-      timed_loop(state, next, [&] {
-        benchmark::DoNotOptimize(
-            f->part_solver->solve(f->solves.J[k], f->solves.xdot[k], f->state_gradient[k], f->command.free_dofs, kDt));
-      });
+      time_solves(state, *f, [] {});
       break;
     case Part::kIntegrate:
       timed_loop(state, next,
@@ -1143,20 +1169,20 @@ void bm_wbm_part(benchmark::State& state, const FixtureSpec* spec, Part part) {
   benchmark::ClobberMemory();
 }
 
+void bm_wbm_solve_after_other_code(benchmark::State& state, const FixtureSpec* spec) {
+  Fixture* f = get(state, spec);
+  if (f == nullptr) return;
+  time_solves(state, *f, run_other_code);
+  benchmark::ClobberMemory();
+}
+
 namespace {
 
 /// Times controller cycles with the next targets set (untimed) before each; counters for
 /// the share of cycles that took the damped path or froze a dof at its limit.
 /// What a robot's other work between two control cycles does to the caches: 2 MiB of data
 /// read and written (four times this machine's L2 per core; L1 and L2 hold none of the
-/// cycle's data afterwards, the shared L3 still does) and 64 KiB of other code run (twice
-/// the L1 instruction cache, more than the op cache holds).
-[[gnu::noinline]] void run_other_code() {
-#if defined(__GNUC__) && (defined(__x86_64__) || defined(__aarch64__))
-  asm volatile(".rept 16384\n nop\n nop\n nop\n nop\n .endr" ::: "memory");  // 64 KiB (x86: 1 byte per nop)
-#endif
-}
-
+/// cycle's data afterwards, the shared L3 still does) and other code run (run_other_code).
 void evict_caches() {
   static std::vector<unsigned char> other_data(std::size_t{2} << 20, 1);
   constexpr std::size_t kLine = 64;

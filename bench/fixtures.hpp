@@ -103,5 +103,10 @@ enum class Part { kFilters, kForwardKinematics, kCenterOfMass, kValues, kAssembl
 const char* part_name(Part part);
 std::vector<Part> all_parts();
 void bm_wbm_part(benchmark::State& state, const FixtureSpec* spec, Part part);
+/// The solve stage with 64 KiB of other code run (untimed) before each call: the solver's
+/// code no longer decoded in the op cache nor in the L1 instruction cache, its data still in
+/// L1. Against the solve stage alone, what decoding the solver's code again costs; inside the
+/// cycle the other stages' code does the same (bench/README.md, "Inside the cycle").
+void bm_wbm_solve_after_other_code(benchmark::State& state, const FixtureSpec* spec);
 
 }  // namespace wbm_bench
