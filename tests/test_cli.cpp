@@ -4,6 +4,7 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <map>
@@ -278,6 +279,7 @@ TEST(Cli, RunSaysHowBalanceAndWalkingEnded) {
   EXPECT_NE(r.err.substr(in, out - in).find("  joints: fastest at 0."), std::string::npos) << r.err;
   EXPECT_NE(r.err.substr(in, out - in).find(" of its bound k v_max (upper_body_"), std::string::npos) << r.err;
   for (const std::string& f : {inside, outside, walk}) std::remove(f.c_str());
+  std::filesystem::remove_all(base + "_dir");
 }
 
 TEST(Cli, MissingSubcommandFails) {

@@ -1,5 +1,7 @@
 // The paper's experiments (Figs. 4 and 7), balance (section V) and walking (section VI),
 // run as the shipped scenarios, each checked against what the paper shows.
+#include <unistd.h>
+
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -723,7 +725,7 @@ TEST(Scenarios, BalanceReportDrawsTheFeetAndTheCentreOfMass) {
 /// joint's acceleration within the Controller's bound.
 TEST(Scenarios, EveryShippedScenarioRunsAndWritesItsOutputs) {
   namespace fs = std::filesystem;
-  const fs::path out = fs::temp_directory_path() / "wbm_scenarios_test";
+  const fs::path out = fs::temp_directory_path() / ("wbm_scenarios_test_" + std::to_string(getpid()));
   int count = 0;
   for (const auto& entry : fs::directory_iterator(wbm_test::source_path("scenarios"))) {
     if (entry.path().extension() != ".yaml") continue;
@@ -747,6 +749,7 @@ TEST(Scenarios, EveryShippedScenarioRunsAndWritesItsOutputs) {
         << s.name << ": " << summary["max_joint_acceleration_to_bound"].dump();
   }
   EXPECT_GE(count, 10);
+  fs::remove_all(out);
 }
 
 // Errors of joint elements are given in the dofs' unit: a torso lift (prismatic) in m, not
