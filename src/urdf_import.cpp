@@ -238,6 +238,15 @@ class UrdfChecker {
         if (limit->Attribute(attribute) == nullptr)
           fail(limit->Row(), what + ": <limit> lacks " + attribute + "=\"...\" (the URDF format requires it" +
                                  (std::string(attribute) == "effort" ? "; wbm does not use it)" : ")"));
+    // Two more that urdfdom rejects without a line (wbm reads neither element).
+    if (const TiXmlElement* safety = e->FirstChildElement("safety_controller"))
+      if (safety->Attribute("k_velocity") == nullptr)
+        fail(safety->Row(), what + ": <safety_controller> lacks k_velocity=\"...\" (the URDF format requires it; wbm "
+                                   "does not use it)");
+    if (const TiXmlElement* dynamics = e->FirstChildElement("dynamics"))
+      if (dynamics->Attribute("damping") == nullptr && dynamics->Attribute("friction") == nullptr)
+        fail(dynamics->Row(), what + ": <dynamics> has neither damping=\"...\" nor friction=\"...\" (the URDF format "
+                                     "requires one; wbm uses neither)");
     joint_index_[j.name] = joints_.size();
     joints_.push_back(j);
   }

@@ -59,6 +59,13 @@ const std::vector<Case>& catalogue() {
       {"axis_not_unit.urdf", "axis_not_unit.urdf:10: joint 'j1': joint axis has norm 2 (expected a unit vector, within 1 %)", "", {}},
       {"limit_without_effort.urdf",
        "limit_without_effort.urdf:11: joint 'j1': <limit> lacks effort=\"...\" (the URDF format requires it", "", {}},
+      {"safety_without_k_velocity.urdf",
+       "safety_without_k_velocity.urdf:12: joint 'j1': <safety_controller> lacks k_velocity=\"...\" (the URDF format "
+       "requires it",
+       "", {}},
+      {"dynamics_without_values.urdf",
+       "dynamics_without_values.urdf:12: joint 'j1': <dynamics> has neither damping=\"...\" nor friction=\"...\"", "",
+       {}},
       {"floating_inside.urdf",
        "floating_inside.urdf:16: joint 'free' (floating) leads to link 'hand', which is not a massless world link", "",
        {}},
