@@ -481,6 +481,19 @@ json summarize(const ScenarioRun& run) {
   return out;
 }
 
+namespace {
+
+/// A CSV header field: quoted (RFC 4180, quotes doubled) when the name holds a comma or a
+/// quote, as URDF joint names and element names may.
+std::string csv_field(const std::string& text) {
+  if (text.find_first_of(",\"") == std::string::npos) return text;
+  std::string quoted = "\"";
+  for (const char c : text) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return quoted + "\"";
+}
+
+}  // namespace
+
 void write_outputs(const ScenarioRun& run, const std::string& directory, bool report) {
   namespace fs = std::filesystem;
   std::error_code error;
@@ -493,12 +506,13 @@ void write_outputs(const ScenarioRun& run, const std::string& directory, bool re
 
   std::ostringstream csv;
   csv << std::setprecision(10) << "time,status";
-  for (const Dof& d : model.dofs()) csv << ",q." << d.name;
+  for (const Dof& d : model.dofs()) csv << "," << csv_field("q." + d.name);
   for (int i = 0; i < stack.num_elements(); ++i) {
     const std::string& name = stack.element(i).name();
     for (const char* kind : {"target", "filtered", "actual"})
-      for (int j = 0; j < stack.element(i).target_dim(); ++j) csv << "," << name << "." << kind << "." << j;
-    csv << "," << name << ".active," << name << ".error";
+      for (int j = 0; j < stack.element(i).target_dim(); ++j)
+        csv << "," << csv_field(name + "." + kind + "." + std::to_string(j));
+    csv << "," << csv_field(name + ".active") << "," << csv_field(name + ".error");
   }
   csv << ",nullspace_cost,cycle_us\n";
   for (int k = 0; k < run.num_cycles(); k += s.record_every) {

@@ -42,6 +42,16 @@ class Reader {
     if (!node.IsScalar()) fail(node, field, "expected a string");
     return node.Scalar();
   }
+  /// A name that appears in messages, CSV headers and (for the scenario) a directory: not
+  /// empty, no control characters; `as_directory` also rules out '/', '\', "." and "..".
+  std::string name(const YAML::Node& node, const std::string& field, bool as_directory) const {
+    const std::string value = text(node, field);
+    const bool control = std::any_of(value.begin(), value.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20; });
+    if (value.empty() || control) fail(node, field, "expected a non-empty name without control characters");
+    if (as_directory && (value == "." || value == ".." || value.find_first_of("/\\") != std::string::npos))
+      fail(node, field, "'" + value + "' cannot name the output directory (expected no '/' or '\\', not '.' or '..')");
+    return value;
+  }
   bool boolean(const YAML::Node& node, const std::string& field) const {
     try {
       return node.as<bool>();
@@ -141,7 +151,8 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
   r.only(root, "", {"name", "description", "robot", "dt", "duration", "record_every", "solver", "criterion", "initial",
                     "frozen", "tasks", "timeline", "balance", "walking", "feet"});
   if (!root["name"]) throw ConfigError(source + ":1: name: missing (expected a scenario name)");
-  s.name = r.text(root["name"], "name");
+  s.name = r.name(root["name"], "name", true);
+  s.name_line = r.line(root["name"]);
   if (root["description"]) s.description = r.text(root["description"], "description");
   if (const YAML::Node robot = root["robot"]) {
     r.only(robot, "robot", {"builtin", "urdf", "root", "legs", "drop_legs", "root_height", "root_rpy", "default_limits",
@@ -280,7 +291,7 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
     task.line = r.line(t);
     if (!t["name"]) r.fail(t, field + ".name", "missing");
     if (!t["type"]) r.fail(t, field + ".type", "missing (expected position, axis, attitude, com or joints)");
-    task.name = r.text(t["name"], field + ".name");
+    task.name = r.name(t["name"], field + ".name", false);
     if (!names.insert(task.name).second) r.fail(t["name"], field + ".name", "duplicate element name '" + task.name + "'");
     task.type = r.text(t["type"], field + ".type");
     static const std::set<std::string> kTypes = {"position", "axis", "attitude", "com", "joints"};

@@ -78,7 +78,8 @@ struct WalkingSettings {
 };
 
 struct Scenario {
-  std::string name;
+  std::string name;             ///< also the output directory's name when several run
+  int name_line = 0;
   std::string description;
   std::string source;           ///< the file, for messages
   std::string urdf;             ///< empty: built-in paper model

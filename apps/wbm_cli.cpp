@@ -8,6 +8,7 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <map>
 #include <sstream>
 
 #include <CLI/CLI.hpp>
@@ -214,6 +215,12 @@ int run_scenarios(const std::vector<std::string>& files, const std::string& out,
   std::vector<wbm::Scenario> scenarios;
   for (const std::string& f : files) scenarios.push_back(wbm::load_scenario(f));
   auto directory = [&](const wbm::Scenario& s) { return files.size() == 1 ? out : out + "/" + s.name; };
+  std::map<std::string, const wbm::Scenario*> by_name;  // each writes to out/<name>: no two alike
+  for (const wbm::Scenario& s : scenarios)
+    if (files.size() > 1 && !by_name.emplace(s.name, &s).second)
+      throw wbm::ConfigError(s.source + ":" + std::to_string(s.name_line) + ": name: '" + s.name +
+                             "' is also the name of the scenario in " + by_name[s.name]->source + "; both would write to " +
+                             directory(s));
   wbm::RunOptions check;
   check.check_only = true;
   for (const wbm::Scenario& s : scenarios) {

@@ -203,6 +203,25 @@ TEST(Cli, RunChecksEveryScenarioBeforeRunningAny) {
   std::remove(bad.c_str());
 }
 
+// Two scenarios of one name would write into the same directory, the second over the first:
+// refused before either runs.
+TEST(Cli, RunRefusesTwoScenariosOfOneName) {
+  const std::string dir = testing::TempDir() + "wbm_cli_same_name_" + std::to_string(getpid());
+  const std::string first = dir + "_1.yaml", second = dir + "_2.yaml", out = dir + "_out";
+  for (const std::string& file : {first, second})
+    std::ofstream(file) << "# a comment\nname: same\nduration: 0.1\ntasks: [{name: a, type: position, frame: l_hand_ref}]\n";
+  const CliRun r = wbm_cli("run '" + first + "' '" + second + "' --out '" + out + "'");
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_NE(r.err.find("_2.yaml:2: name: 'same' is also the name of the scenario in " + first + "; both would write to " +
+                       out + "/same"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(r.err.find("scenario same"), std::string::npos) << r.err;
+  EXPECT_NE(access(out.c_str(), F_OK), 0) << out << " was created";
+  std::remove(first.c_str());
+  std::remove(second.c_str());
+}
+
 TEST(Cli, NonFiniteConfigurationFails) {
   expect_cli_error("model fk --q nan,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0 --json", "--q: 'nan' is not a finite number");
   expect_cli_error("model fk --q 1e400,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0 --json",

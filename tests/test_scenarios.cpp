@@ -2,9 +2,12 @@
 // run as the shipped scenarios, each checked against what the paper shows.
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -752,6 +755,40 @@ TEST(Scenarios, EveryShippedScenarioRunsAndWritesItsOutputs) {
   fs::remove_all(out);
 }
 
+/// The fields of one CSV line (RFC 4180: quoted fields may hold commas and doubled quotes).
+std::vector<std::string> csv_fields(const std::string& line) {
+  std::vector<std::string> fields(1);
+  bool quoted = false;
+  for (size_t i = 0; i < line.size(); ++i) {
+    const char c = line[i];
+    if (quoted && c == '"' && i + 1 < line.size() && line[i + 1] == '"') fields.back() += line[++i];
+    else if (c == '"') quoted = !quoted;
+    else if (c == ',' && !quoted) fields.emplace_back();
+    else fields.back() += c;
+  }
+  return fields;
+}
+
+// Element names head CSV columns: one with a comma and a quote is quoted there, so the
+// header has as many fields as every row (it had one more per comma).
+TEST(Scenarios, TrajectoryHeaderQuotesNamesWithCommasAndQuotes) {
+  namespace fs = std::filesystem;
+  const auto run = run_scenario(parse_scenario(
+      "name: csv\nduration: 0.05\ntasks: [{name: 'left, \"the\" hand', type: position, frame: l_hand_ref, active: true}]\n",
+      "csv.yaml", "."));
+  const fs::path out = fs::temp_directory_path() / ("wbm_csv_quoting_" + std::to_string(getpid()));
+  write_outputs(*run, out.string(), false);
+  std::ifstream csv(out / "trajectory.csv");
+  std::string header, row;
+  std::getline(csv, header);
+  std::getline(csv, row);
+  fs::remove_all(out);
+  EXPECT_NE(header.find(",\"left, \"\"the\"\" hand.target.0\","), std::string::npos) << header;
+  const std::vector<std::string> names = csv_fields(header);
+  EXPECT_EQ(names.size(), csv_fields(row).size()) << header;
+  EXPECT_NE(std::find(names.begin(), names.end(), "left, \"the\" hand.error"), names.end()) << header;
+}
+
 // Errors of joint elements are given in the dofs' unit: a torso lift (prismatic) in m, not
 // in rad as every joint element's were; a lift and an arm joint together in "rad, m".
 TEST(Scenarios, JointElementErrorsCarryTheUnitOfTheirDofs) {
@@ -860,6 +897,18 @@ TEST(Scenarios, BadFilesNameTheLineAndField) {
        "bad.yaml:6: timeline[0].balance: balance moves the virtual dofs, which robot.fixed_base keeps frozen"},
       {"name: x\nrobot: {fixed_base: yes please}\ntasks: [{name: a, type: position, frame: f}]\n",
        "bad.yaml:2: robot.fixed_base: expected true or false"},
+      // The scenario's name is its output directory when several run: it may not leave --out
+      // or be --out itself; element names head CSV columns and messages (found by fuzzing).
+      {"name: ../elsewhere\ntasks: [{name: a, type: position, frame: f}]\n",
+       "bad.yaml:1: name: '../elsewhere' cannot name the output directory (expected no '/' or '\\', not '.' or '..')"},
+      {"name: a/b\ntasks: [{name: a, type: position, frame: f}]\n", "bad.yaml:1: name: 'a/b' cannot name the output directory"},
+      {"name: '..'\ntasks: [{name: a, type: position, frame: f}]\n", "bad.yaml:1: name: '..' cannot name the output directory"},
+      {"name: ''\ntasks: [{name: a, type: position, frame: f}]\n",
+       "bad.yaml:1: name: expected a non-empty name without control characters"},
+      {"name: x\ntasks:\n  - {name: '', type: position, frame: f}\n",
+       "bad.yaml:3: tasks[0].name: expected a non-empty name without control characters"},
+      {"name: x\ntasks:\n  - {name: \"a\\tb\", type: position, frame: f}\n",
+       "bad.yaml:3: tasks[0].name: expected a non-empty name without control characters"},
   };
   for (const BadScenario& c : cases) {
     try {
