@@ -313,7 +313,15 @@ int main(int argc, char** argv) {
   run->add_option("--out", run_out, "output directory (one subdirectory per scenario when several are given)");
   run->add_flag("--no-report", run_no_report, "skip report.html");
 
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help
+    // A bad command line: the message as for a bad file, and exit status 2 (a usage error,
+    // as scripts/check_model.sh and bench.sh give), not CLI11's 100-odd codes.
+    std::cerr << "wbm: error: " << e.what() << "\nRun with --help for more information.\n";
+    return 2;
+  }
   try {
     if (info->parsed()) return model_info(info_source, info_json);
     if (fk->parsed()) return model_fk(fk_source, q_text, fk_frames, fk_jacobian);

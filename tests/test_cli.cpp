@@ -301,9 +301,24 @@ TEST(Cli, RunSaysHowBalanceAndWalkingEnded) {
   std::filesystem::remove_all(base + "_dir");
 }
 
-TEST(Cli, MissingSubcommandFails) {
-  EXPECT_NE(wbm_cli("").status, 0);
-  EXPECT_NE(wbm_cli("model").status, 0);
+// A bad command line exits 2 with the message as for a bad file (CLI11's own exit codes
+// were 100-odd, its message without the prefix); --help still exits 0.
+TEST(Cli, BadCommandLinesExitTwoWithTheMessage) {
+  const std::pair<const char*, const char*> cases[] = {
+      {"", "wbm: error: A subcommand is required"},
+      {"model", "wbm: error: A subcommand is required"},
+      {"model info --root-rpy 1", "wbm: error: --root-rpy: At least 3 required but received 1"},
+      {"model fk --root-height high", "wbm: error: Could not convert: --root-height = high"},
+      {"model info --no-such-flag", "wbm: error: The following argument was not expected: --no-such-flag"},
+  };
+  for (const auto& [arguments, message] : cases) {
+    const CliRun r = wbm_cli(arguments);
+    EXPECT_EQ(r.status, 2) << arguments << "\n" << r.err;
+    EXPECT_NE(r.err.find(message), std::string::npos) << arguments << "\n" << r.err;
+  }
+  const CliRun help = wbm_cli("model fk --help");
+  EXPECT_EQ(help.status, 0) << help.err;
+  EXPECT_NE(help.out.find("--jacobian"), std::string::npos) << help.out;
 }
 
 }  // namespace
