@@ -838,7 +838,7 @@ TEST(FixedBase, DualArmTakesLiftsAndPushesABoxWithItsBaseUprightAndFrozen) {
 }
 
 struct BadScenario {
-  const char* yaml;
+  std::string yaml;
   const char* message;
 };
 
@@ -903,6 +903,8 @@ TEST(Scenarios, BadFilesNameTheLineAndField) {
        "bad.yaml:1: name: '../elsewhere' cannot name the output directory (expected no '/' or '\\', not '.' or '..')"},
       {"name: a/b\ntasks: [{name: a, type: position, frame: f}]\n", "bad.yaml:1: name: 'a/b' cannot name the output directory"},
       {"name: '..'\ntasks: [{name: a, type: position, frame: f}]\n", "bad.yaml:1: name: '..' cannot name the output directory"},
+      {"name: " + std::string(256, 'n') + "\ntasks: [{name: a, type: position, frame: f}]\n",
+       "bad.yaml:1: name: a name of 256 bytes cannot name the output directory (at most 255)"},
       {"name: ''\ntasks: [{name: a, type: position, frame: f}]\n",
        "bad.yaml:1: name: expected a non-empty name without control characters"},
       {"name: x\ntasks:\n  - {name: '', type: position, frame: f}\n",
