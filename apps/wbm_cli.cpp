@@ -201,7 +201,12 @@ void check_output_directory(const std::string& directory) {
   if (fs::exists(path, error)) {
     if (!fs::is_directory(path, error)) throw wbm::ConfigError(directory + ": exists and is not a directory (--out)");
   } else {
-    while (!path.empty() && !fs::exists(path, error)) path = path.parent_path();
+    while (!path.empty() && !fs::exists(path, error)) {
+      if (path.filename().native().size() > 255)  // NAME_MAX: create_directories would fail after the run
+        throw wbm::ConfigError(directory + ": cannot be created: '" + path.filename().native().substr(0, 40) +
+                               "...' is longer than a file name may be (255 bytes; --out)");
+      path = path.parent_path();
+    }
     if (!fs::is_directory(path, error))
       throw wbm::ConfigError(directory + ": cannot be created: " + path.string() + " is not a directory (--out)");
   }

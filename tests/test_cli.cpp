@@ -272,6 +272,21 @@ TEST(Cli, RunWithAnOutputThatIsAFileFails) {
   std::remove(file.c_str());
 }
 
+// An --out with a component longer than a file name: refused before the run (it failed only
+// when writing, after the simulation, and left the directories above it behind).
+TEST(Cli, RunWithAnOutputNameTooLongFails) {
+  const std::string base = testing::TempDir() + "wbm_cli_long_out_" + std::to_string(getpid());
+  const std::string scenario = base + ".yaml", out = base + "_dir/" + std::string(300, 'o');
+  std::ofstream(scenario) << "name: x\nduration: 0.1\ntasks: [{name: a, type: position, frame: l_hand_ref}]\n";
+  const CliRun r = wbm_cli("run '" + scenario + "' --out '" + out + "' --no-report");
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_NE(r.err.find("wbm: error: " + out + ": cannot be created: 'oooo"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("' is longer than a file name may be (255 bytes; --out)"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("scenario x"), std::string::npos) << r.err;
+  EXPECT_NE(access((base + "_dir").c_str(), F_OK), 0) << base << "_dir was created";
+  std::remove(scenario.c_str());
+}
+
 // The run's last lines say how balance and walking ended, not only the task errors: a
 // centre of mass left outside the feet, or a walk still going, is what a user looks for;
 // and how close the joints came to their limits.
