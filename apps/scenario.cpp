@@ -42,7 +42,6 @@ class Reader {
     if (!node.IsScalar()) fail(node, field, "expected a string");
     return node.Scalar();
   }
-  static constexpr size_t kMaxFileName = 255;  ///< bytes of a file name on Linux file systems (NAME_MAX)
   /// A name that appears in messages, CSV headers and (for the scenario) a directory: not
   /// empty, no control characters; `as_directory` also rules out '/', '\', "." and "..".
   std::string name(const YAML::Node& node, const std::string& field, bool as_directory) const {
@@ -51,9 +50,9 @@ class Reader {
     if (value.empty() || control) fail(node, field, "expected a non-empty name without control characters");
     if (as_directory && (value == "." || value == ".." || value.find_first_of("/\\") != std::string::npos))
       fail(node, field, "'" + value + "' cannot name the output directory (expected no '/' or '\\', not '.' or '..')");
-    if (as_directory && value.size() > kMaxFileName)  // found only when writing, after the run
+    if (as_directory && value.size() > kMaxFileNameBytes)
       fail(node, field, "a name of " + std::to_string(value.size()) + " bytes cannot name the output directory (at most " +
-                            std::to_string(kMaxFileName) + ")");
+                            std::to_string(kMaxFileNameBytes) + ")");
     return value;
   }
   bool boolean(const YAML::Node& node, const std::string& field) const {

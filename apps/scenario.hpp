@@ -3,6 +3,7 @@
 /// Scenario files (YAML): robot, task elements, timing and a timeline of commands.
 /// The format is documented in docs/scenarios.md.
 
+#include <cstddef>
 #include <string>
 #include <utility>
 #include <vector>
@@ -103,6 +104,11 @@ struct Scenario {
   WalkingSettings walking;
   FeetSettings feet;
 };
+
+/// The longest file name Linux file systems take (NAME_MAX) [bytes]: a scenario's name and
+/// each new directory of --out are checked against it before anything runs, since creating
+/// the directory fails only after the simulation.
+inline constexpr std::size_t kMaxFileNameBytes = 255;
 
 /// @throws ConfigError "FILE:LINE: field: what was expected" for any bad entry.
 Scenario load_scenario(const std::string& path);

@@ -202,9 +202,10 @@ void check_output_directory(const std::string& directory) {
     if (!fs::is_directory(path, error)) throw wbm::ConfigError(directory + ": exists and is not a directory (--out)");
   } else {
     while (!path.empty() && !fs::exists(path, error)) {
-      if (path.filename().native().size() > 255)  // NAME_MAX: create_directories would fail after the run
+      if (path.filename().native().size() > wbm::kMaxFileNameBytes)
         throw wbm::ConfigError(directory + ": cannot be created: '" + path.filename().native().substr(0, 40) +
-                               "...' is longer than a file name may be (255 bytes; --out)");
+                               "...' is longer than a file name may be (" + std::to_string(wbm::kMaxFileNameBytes) +
+                               " bytes; --out)");
       path = path.parent_path();
     }
     if (!fs::is_directory(path, error))
