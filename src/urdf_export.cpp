@@ -1,3 +1,4 @@
+#include <functional>
 #include <iomanip>
 #include <sstream>
 
@@ -97,12 +98,29 @@ std::string export_urdf(const Model& model, const UrdfExportOptions& options) {
                        "0 (body '" + body.name + "' has " + std::to_string(body.multiplier) + " and " +
                        std::to_string(body.offset) + "); a URDF joint cannot scale its own value");
   }
+  // A welded link (a frame that is not a body's own) is written just before the first joint
+  // that hangs from it, or at the end if none does. The import numbers the dofs depth-first,
+  // taking a link's joints in file order; written after every body, a welded link with a
+  // joint below it (a neck on a head mount) would put that joint's dof after the bodies that
+  // follow it here, and the exported file would number the dofs differently from the model.
+  std::vector<bool> frame_written(model.num_frames(), false);
+  std::function<void(int)> write_frame = [&](int i) {
+    const Frame& f = model.frame(i);
+    if (frame_written[i] || model.is_body_frame(i) || f.body < root) return;
+    frame_written[i] = true;
+    if (f.parent >= 0) write_frame(f.parent);
+    const auto [parent_link, X_PF] = hang(f, f.body, f.X_BF);
+    out << "  <link name=\"" << f.name << "\"/>\n  <joint name=\"" << f.name << "_joint\" type=\"fixed\">\n    <parent link=\""
+        << parent_link << "\"/>\n    <child link=\"" << f.name << "\"/>\n    " << origin(X_PF) << "\n  </joint>\n";
+  };
   for (int b = root + 1; b < model.num_bodies(); ++b) {
     const Body& body = model.body(b);
+    const Frame& body_frame = model.frame(model.frame_index(body.name));
+    if (body_frame.parent >= 0) write_frame(body_frame.parent);
     out << "  <link name=\"" << body.name << "\">\n";
     write_inertial(out, body.inertial);
     out << "  </link>\n";
-    const auto [parent_link, X_PJ] = hang(model.frame(model.frame_index(body.name)), body.parent, body.X_PJ);
+    const auto [parent_link, X_PJ] = hang(body_frame, body.parent, body.X_PJ);
     if (body.dof < 0) {  // welded to its parent
       out << "  <joint name=\"" << body.name << "_joint\" type=\"fixed\">\n    <parent link=\"" << parent_link
           << "\"/>\n    <child link=\"" << body.name << "\"/>\n    " << origin(X_PJ) << "\n  </joint>\n";
@@ -121,13 +139,7 @@ std::string export_urdf(const Model& model, const UrdfExportOptions& options) {
           << body.offset << "\"/>\n";
     out << "  </joint>\n";
   }
-  for (int i = 0; i < model.num_frames(); ++i) {
-    const Frame& f = model.frame(i);
-    if (model.is_body_frame(i) || f.body < root) continue;
-    const auto [parent_link, X_PF] = hang(f, f.body, f.X_BF);
-    out << "  <link name=\"" << f.name << "\"/>\n  <joint name=\"" << f.name << "_joint\" type=\"fixed\">\n    <parent link=\""
-        << parent_link << "\"/>\n    <child link=\"" << f.name << "\"/>\n    " << origin(X_PF) << "\n  </joint>\n";
-  }
+  for (int i = 0; i < model.num_frames(); ++i) write_frame(i);
   out << "</robot>\n";
   return out.str();
 }

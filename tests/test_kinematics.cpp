@@ -918,6 +918,9 @@ TEST_P(ExportRoundTrip, SameFramePosesAfterExportAndImport) {
   }
   const Model back = wbm::parse_urdf(wbm::export_urdf(original), options, entry.id + "_export.urdf");
   ASSERT_EQ(back.num_dofs(), original.num_dofs());
+  // The same dofs in the same order: a q of the model is a q of the exported file.
+  for (int i = 0; i < original.num_dofs(); ++i)
+    ASSERT_EQ(back.dof(i).name, original.dof(i).name) << "dof " << i << " of the file exported and imported again";
   EXPECT_NEAR(back.total_mass(), original.total_mass(), 1e-9);
   expect_same_frame_poses(original, back, 5, 20);
   // The links hang from the same links (Frame::parent; the body's origin where not given).
@@ -1139,6 +1142,39 @@ TEST(Export, ModelWithWeldedBody) {
   EXPECT_LT(wbm_test::transform_distance(wbm::frame_pose(original, da, original.frame_index("hand")),
                                          wbm::frame_pose(back, db, back.frame_index("hand"))),
             1e-12);
+}
+
+// A joint below a welded link whose fixed joint the file lists before a sibling joint (a neck
+// on a head mount, listed before the arms, as in Unitree's G1 with a 2-dof head): the import
+// numbers the neck's dof first. The export once wrote every welded link after all joints, so
+// the exported file numbered the arm first: a model's q meant other joints in the file.
+TEST(Export, JointBelowAWeldedLinkKeepsItsDofNumber) {
+  const std::string xml =
+      "<?xml version=\"1.0\"?>\n<robot name=\"r\">\n"
+      "<link name=\"torso\"><inertial><mass value=\"5\"/>"
+      "<inertia ixx=\"0.1\" ixy=\"0\" ixz=\"0\" iyy=\"0.1\" iyz=\"0\" izz=\"0.1\"/></inertial></link>\n"
+      "<link name=\"head_mount\"/><link name=\"neck\"/><link name=\"head\"/><link name=\"arm\"/>\n"
+      "<joint name=\"mount_joint\" type=\"fixed\"><parent link=\"torso\"/><child link=\"head_mount\"/>"
+      "<origin xyz=\"0 0 0.4\" rpy=\"0 0.2 0\"/></joint>\n"
+      "<joint name=\"neck_pitch\" type=\"revolute\"><parent link=\"head_mount\"/><child link=\"neck\"/>"
+      "<origin xyz=\"0 0 0.05\"/><axis xyz=\"0 1 0\"/><limit lower=\"-0.5\" upper=\"0.5\" effort=\"1\" velocity=\"1\"/></joint>\n"
+      "<joint name=\"neck_yaw\" type=\"revolute\"><parent link=\"neck\"/><child link=\"head\"/>"
+      "<origin xyz=\"0 0 0.08\"/><axis xyz=\"0 0 1\"/><limit lower=\"-2\" upper=\"2\" effort=\"1\" velocity=\"1\"/></joint>\n"
+      "<joint name=\"shoulder\" type=\"revolute\"><parent link=\"torso\"/><child link=\"arm\"/>"
+      "<origin xyz=\"0 0.2 0.3\"/><axis xyz=\"0 1 0\"/><limit lower=\"-2\" upper=\"2\" effort=\"1\" velocity=\"1\"/></joint>\n"
+      "</robot>\n";
+  wbm::UrdfImportOptions options;
+  options.root_height = 1.0;
+  const Model original = wbm::parse_urdf(xml, options, "welded_mount.urdf");
+  const int first = original.virtual_dofs().ub_yaw + 1;
+  ASSERT_EQ(original.num_dofs(), first + 3);
+  ASSERT_EQ(original.dof(first).name, "neck_pitch");
+  ASSERT_EQ(original.dof(first + 2).name, "shoulder");
+  options.root = "torso";
+  const Model back = wbm::parse_urdf(wbm::export_urdf(original), options, "welded_mount_export.urdf");
+  ASSERT_EQ(back.num_dofs(), original.num_dofs());
+  for (int i = 0; i < original.num_dofs(); ++i) EXPECT_EQ(back.dof(i).name, original.dof(i).name) << "dof " << i;
+  expect_same_frame_poses(original, back, 9, 50);
 }
 
 // A dof that drives its only body with a multiplier has no URDF joint to be: an error that
