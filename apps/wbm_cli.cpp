@@ -106,6 +106,24 @@ int model_info(ModelSource& source, bool as_json) {
               << std::right << std::setw(9) << d.lower << "  " << std::setw(9) << d.upper << "  " << std::setw(9)
               << d.max_speed << "  " << std::setw(9) << d.work_range << "\n";
   }
+  // A URDF's <limit velocity> taken at its word: a placeholder such as 1e9 (ergoCub's files)
+  // leaves the speed limits, the braking before position limits and the bound on the rates'
+  // change (all proportional to it) without effect. Said here, where a user checks a file.
+  constexpr double kImplausibleSpeed = 100.0;  // rad/s or m/s; G1's fastest joints: 37 rad/s
+  int implausible = 0;
+  int fastest = -1;
+  for (int i = 0; i < model.num_dofs(); ++i)
+    if (model.dof(i).max_speed > kImplausibleSpeed) {
+      ++implausible;
+      if (fastest < 0 || model.dof(i).max_speed > model.dof(fastest).max_speed) fastest = i;
+    }
+  if (implausible > 0)
+    std::cout << std::defaultfloat << "\nnote: " << implausible << " dof" << (implausible == 1 ? "" : "s")
+              << " with a speed limit above " << kImplausibleSpeed << " rad/s or m/s (the largest: '"
+              << model.dof(fastest).name << "', " << model.dof(fastest).max_speed
+              << "): the speed limits, the braking before position limits and the bound on the rates' change "
+                 "are proportional to it and will hardly act; if the URDF's <limit velocity> is a placeholder, "
+                 "give the real speeds\n";
   std::cout << "\nframes (body, and the frame it hangs from where given):";
   for (const wbm::Frame& f : model.frames()) {
     std::cout << "\n  " << f.name << " (" << model.body(f.body).name;

@@ -53,6 +53,31 @@ TEST(Cli, ModelInfoText) {
   EXPECT_NE(r.out.find("l_hand_ref"), std::string::npos);
 }
 
+// A placeholder <limit velocity> (ergoCub's URDFs declare 1e9 rad/s on every joint) would
+// leave the speed limits without effect: `model info` says so; realistic speeds get no note.
+TEST(Cli, ModelInfoNotesImplausibleSpeedLimits) {
+  const std::string file = testing::TempDir() + "wbm_cli_fast_" + std::to_string(getpid()) + ".urdf";
+  std::ofstream(file) << "<?xml version=\"1.0\"?>\n<robot name=\"fast\">\n"
+                         "<link name=\"base\"><inertial><mass value=\"1\"/>"
+                         "<inertia ixx=\"0.1\" ixy=\"0\" ixz=\"0\" iyy=\"0.1\" iyz=\"0\" izz=\"0.1\"/></inertial></link>\n"
+                         "<link name=\"a\"/><link name=\"b\"/>\n"
+                         "<joint name=\"slow\" type=\"revolute\"><parent link=\"base\"/><child link=\"a\"/><axis xyz=\"0 0 1\"/>"
+                         "<limit lower=\"-1\" upper=\"1\" effort=\"1\" velocity=\"30\"/></joint>\n"
+                         "<joint name=\"fast\" type=\"revolute\"><parent link=\"a\"/><child link=\"b\"/><axis xyz=\"0 1 0\"/>"
+                         "<limit lower=\"-1\" upper=\"1\" effort=\"1\" velocity=\"1e9\"/></joint>\n</robot>\n";
+  const CliRun r = wbm_cli("model info '" + file + "' --root-height 1");
+  std::remove(file.c_str());
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("note: 1 dof with a speed limit above 100 rad/s or m/s (the largest: 'fast', 1e+09)"),
+            std::string::npos)
+      << r.out;
+  const CliRun paper = wbm_cli("model info");
+  EXPECT_EQ(paper.out.find("note:"), std::string::npos) << paper.out;
+  const CliRun g1 = wbm_cli("model info '" + wbm_test::shipped_model("g1_29dof").path + "'");
+  EXPECT_EQ(g1.status, 0) << g1.err;
+  EXPECT_EQ(g1.out.find("note:"), std::string::npos) << g1.out;
+}
+
 TEST(Cli, ModelInfoJson) {
   const json j = parse(wbm_cli("model info --json"));
   ASSERT_TRUE(j.is_object());
