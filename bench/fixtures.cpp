@@ -24,10 +24,10 @@
 #include <kdl/treefksolverpos_recursive.hpp>
 #include <kdl/treeiksolvervel_wdls.hpp>
 #include <kdl/treejnttojacsolver.hpp>
-#include <kdl_parser/kdl_parser.hpp>
 #include <urdf_parser/urdf_parser.h>
 
 #include "bench_common.hpp"
+#include "kdl_parse.hpp"
 #include "recorded_solves.hpp"
 #include "shipped_models.hpp"
 #include "wbm/controller.hpp"
@@ -60,7 +60,7 @@ constexpr double kOutOfReach = 1.0;           // [m] hand targets beyond the han
 /// The URDF's root link is "world" and every joint from it is fixed: a robot bolted to the
 /// ground (a floating joint from "world" is a free-standing robot).
 bool bolted_to_world(const std::string& xml) {
-  const urdf::ModelInterfaceSharedPtr robot = urdf::parseURDF(xml);
+  const urdf::ModelInterfaceSharedPtr robot = wbm_test::urdf_model_from_string(xml);
   if (!robot || !robot->getRoot() || robot->getRoot()->name != "world") return false;
   for (const urdf::JointSharedPtr& joint : robot->getRoot()->child_joints)
     if (joint->type != urdf::Joint::FIXED) return false;
@@ -548,8 +548,11 @@ void Fixture::build_wbm() {
 
 void Fixture::build_kdl(KdlTree& k, const std::string& xml, bool whole_tree) {
   k.what = whole_tree ? "whole tree" : "URDF tree";
-  if (!kdl_parser::treeFromString(xml, k.tree))
-    throw std::runtime_error(spec.id + ": kdl_parser rejected the URDF (" + k.what + ")");
+  const wbm_test::KdlParse parsed = wbm_test::kdl_tree_from_string(xml, k.tree);
+  if (!parsed.ok)
+    throw std::runtime_error(spec.id + ": kdl_parser rejected the URDF (" + k.what + ")" +
+                             (parsed.messages > 0 ? ": " + parsed.summary() : ""));
+  if (parsed.messages > 0) note(spec.id + ": KDL's " + k.what + ": " + parsed.summary());
   const unsigned nj = k.tree.getNrOfJoints();
   std::map<std::string, int> q_nr;
   for (const auto& [name, element] : k.tree.getSegments()) {

@@ -26,9 +26,9 @@
 #include <kdl/tree.hpp>
 #include <kdl/treefksolverpos_recursive.hpp>
 #include <kdl/treejnttojacsolver.hpp>
-#include <kdl_parser/kdl_parser.hpp>
 #include <urdf_parser/urdf_parser.h>
 
+#include "kdl_parse.hpp"
 #include "shipped_models.hpp"
 #include "test_util.hpp"
 #include "wbm/kinematics.hpp"
@@ -226,8 +226,11 @@ TEST_P(KdlComparison, PosesAndJacobiansMatchKdl) {
   const ShippedModel& entry = GetParam();
   const Model model = entry.load();
   KDL::Tree tree;
-  if (!kdl_parser::treeFromFile(entry.path, tree))
-    GTEST_SKIP() << "kdl_parser could not parse " << entry.path << " (no KDL reference for model " << entry.id << ")";
+  const wbm_test::KdlParse parsed = wbm_test::kdl_tree_from_file(entry.path, tree);
+  if (!parsed.ok)
+    GTEST_SKIP() << "kdl_parser could not parse " << entry.path << " (no KDL reference for model " << entry.id
+                 << "): " << parsed.summary();
+  if (parsed.messages > 0) std::cout << "  " << entry.id << ": " << parsed.summary() << "\n";
   int dropped = 0;  // links of legs removed (LegMode::kDrop): the leg link's subtree in KDL's tree
   if (entry.options.leg_mode == wbm::LegMode::kDrop) {
     std::function<int(const KDL::SegmentMap::const_iterator&)> subtree_size = [&](const auto& segment) {
@@ -240,7 +243,7 @@ TEST_P(KdlComparison, PosesAndJacobiansMatchKdl) {
       if (segment != tree.getSegments().end()) dropped += subtree_size(segment);
     }
   }
-  compare_with_kdl(entry.id, model, tree, read_mimics(urdf::parseURDFFile(entry.path), entry.path), false, dropped);
+  compare_with_kdl(entry.id, model, tree, read_mimics(wbm_test::urdf_model_from_file(entry.path), entry.path), false, dropped);
 }
 
 // Frame::parent draws the robot: every frame hangs from the frame of the link next to it in
@@ -251,7 +254,7 @@ TEST_P(KdlComparison, PosesAndJacobiansMatchKdl) {
 TEST_P(KdlComparison, FrameParentsAreTheUrdfJoints) {
   const ShippedModel& entry = GetParam();
   const Model model = entry.load();
-  const urdf::ModelInterfaceSharedPtr urdf = urdf::parseURDFFile(entry.path);
+  const urdf::ModelInterfaceSharedPtr urdf = wbm_test::urdf_model_from_file(entry.path);
   ASSERT_TRUE(urdf) << entry.path;
   const int first = model.virtual_dofs().upper_body;  // frames before it are the virtual chain's
   auto is_link = [&](int f) { return urdf->links_.count(model.frame(f).name) > 0; };
@@ -294,7 +297,9 @@ void compare_whole_tree_with_kdl(const std::string& id, const Model& model) {
   options.virtual_dofs = true;
   const std::string xml = wbm::export_urdf(model, options);
   KDL::Tree tree;
-  ASSERT_TRUE(kdl_parser::treeFromString(xml, tree)) << id << ": kdl_parser rejects the whole-tree export";
+  const wbm_test::KdlParse parsed = wbm_test::kdl_tree_from_string(xml, tree);
+  ASSERT_TRUE(parsed.ok) << id << ": kdl_parser rejects the whole-tree export; " << parsed.summary();
+  EXPECT_EQ(parsed.messages, 0) << id << ": the whole-tree export: " << parsed.summary();
   // The root is "world", or "world_" where the model has a frame of that name
   // (models/dual_arm keeps its URDF's world link as a frame on its base).
   const std::string world = model.find_frame("world") >= 0 ? "world_" : "world";
