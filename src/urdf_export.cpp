@@ -1,3 +1,4 @@
+#include <charconv>
 #include <functional>
 #include <iomanip>
 #include <sstream>
@@ -13,6 +14,14 @@ std::string vec(const Vector3& v) {
   std::ostringstream out;
   out << std::setprecision(17) << v.x() << " " << v.y() << " " << v.z();
   return out.str();
+}
+
+/// The shortest decimal that reads back as the same double (for the import options named
+/// in the file's comment: exact, and 0.6 rather than 0.59999999999999998).
+std::string shortest(double value) {
+  char text[32];
+  const auto result = std::to_chars(text, text + sizeof text, value);
+  return std::string(text, result.ptr);
 }
 
 std::string origin(const Transform& X) {
@@ -64,11 +73,24 @@ std::string export_urdf(const Model& model, const UrdfExportOptions& options) {
   out << "<?xml version=\"1.0\"?>\n<!-- Written by wbm from model '" << model.name() << "'. ";
   if (whole_tree)
     out << "Every dof is a joint, the virtual ones included; link '" << root_link << "' is the world frame. -->\n";
-  else if (model.body(root).X_PJ.R.isIdentity(0.0))
-    out << "Import with root '" << root_link << "'. -->\n";
-  else  // turned by UrdfImportOptions::root_rpy
-    out << "Import with root '" << root_link << "' and root_rpy " << vec(rpy_from_rotation(model.body(root).X_PJ.R))
-        << ". -->\n";
+  else {
+    // The import options that give this model back: the root, its height above the ground
+    // (the top of upper_body_z's range: the legs' length the import measured, or the height
+    // it was given; without it the import would assume 1 m) and root_rpy where turned.
+    std::string import_options = "root '" + root_link + "'", flags = "--root " + root_link;
+    if (v.ub_z >= 0) {
+      const std::string height = shortest(model.dof(v.ub_z).upper);
+      import_options += ", root_height " + height;
+      flags += " --root-height " + height;
+    }
+    if (!model.body(root).X_PJ.R.isIdentity(0.0)) {  // turned by UrdfImportOptions::root_rpy
+      const Vector3 rpy = rpy_from_rotation(model.body(root).X_PJ.R);
+      const std::string r = shortest(rpy.x()), p = shortest(rpy.y()), y = shortest(rpy.z());
+      import_options += " and root_rpy " + r + " " + p + " " + y;
+      flags += " --root-rpy " + r + "," + p + "," + y;
+    }
+    out << "Import with " << import_options << " (" << flags << "). -->\n";
+  }
   out << "<robot name=\"" << model.name() << "\">\n";
   out << "  <link name=\"" << root_link << "\">\n";
   if (!whole_tree) write_inertial(out, model.body(root).inertial);

@@ -165,6 +165,33 @@ TEST(Cli, ExportThenImportWithRootAndHeight) {
   std::remove(file.c_str());
 }
 
+// The exported file's comment names the import flags that give the model back: with them
+// `model info` of the export lists the same dofs, ranges and mass as of the original (G1
+// with its legs measured for the height, turned by --root-rpy). Without the height the
+// import would take 1 m for the root height, and upper_body_z's range would differ.
+TEST(Cli, ExportCommentNamesTheImportFlags) {
+  const std::string g1 = "'" + wbm_test::shipped_model("g1_29dof").path + "'";
+  const std::string source = "--legs left_hip_pitch_link,right_hip_pitch_link --root-rpy 0.3,-0.2,2.5";
+  const std::string file = testing::TempDir() + "wbm_cli_g1_export_" + std::to_string(getpid()) + ".urdf";
+  const CliRun exported = wbm_cli("model export " + g1 + " " + source + " -o '" + file + "'");
+  ASSERT_EQ(exported.status, 0) << exported.err;
+  const std::string xml = read_file(file);
+  const size_t open = xml.find(" (--root "), close = xml.find("). -->", open);
+  ASSERT_NE(open, std::string::npos) << xml.substr(0, 300);
+  ASSERT_NE(close, std::string::npos) << xml.substr(0, 300);
+  const std::string flags = xml.substr(open + 2, close - open - 2);
+  EXPECT_NE(flags.find("--root-height "), std::string::npos) << flags;
+  EXPECT_NE(flags.find("--root-rpy "), std::string::npos) << flags;
+  const json original = parse(wbm_cli("model info " + g1 + " " + source + " --json"));
+  const json back = parse(wbm_cli("model info '" + file + "' " + flags + " --json"));
+  std::remove(file.c_str());
+  ASSERT_EQ(back["dofs"].size(), original["dofs"].size()) << flags;
+  for (size_t i = 0; i < original["dofs"].size(); ++i)
+    for (const char* field : {"name", "lower", "upper", "home"})
+      EXPECT_EQ(back["dofs"][i][field], original["dofs"][i][field]) << i << " " << field << " with " << flags;
+  EXPECT_NEAR(back["total_mass"].get<double>(), original["total_mass"].get<double>(), 1e-9);
+}
+
 TEST(Cli, ExportWholeTreeWithVirtualDofs) {
   // Every dof becomes a joint of the same name below a "world" link (KDL gets this tree in
   // bench/; tests/test_kdl.cpp checks it against KDL); load_urdf refuses it, by name.
