@@ -256,9 +256,9 @@ class UrdfChecker {
     const bool bounded = j.type != "continuous";
     if (limit == nullptr) {
       if (bounded && !options_.default_limits)
-        fail(j.line, what + " (" + j.type + ") has no <limit>; add one or import with default limits");
+        fail(j.line, what + " (" + j.type + ") has no <limit>; add one or import with default limits (default_limits, --default-limits)");
       if (!bounded && j.mimic.empty() && !options_.default_limits)
-        fail(j.line, what + " (continuous) has no <limit velocity=...>; add one or import with default limits");
+        fail(j.line, what + " (continuous) has no <limit velocity=...>; add one or import with default limits (default_limits, --default-limits)");
       return;
     }
     const double lower = limit->Attribute("lower") ? numbers(limit, "lower", 1, what)[0] : 0.0;
@@ -280,10 +280,10 @@ class UrdfChecker {
       fail(limit->Row(), msg.str());
     }
     if (bounded && lower == upper && j.mimic.empty() && !options_.default_limits)
-      fail(limit->Row(), what + ": no position range (lower == upper); give lower < upper or import with default limits");
+      fail(limit->Row(), what + ": no position range (lower == upper); give lower < upper or import with default limits (default_limits, --default-limits)");
     const double velocity = limit->Attribute("velocity") ? numbers(limit, "velocity", 1, what)[0] : 0.0;
     if (velocity <= 0.0 && j.mimic.empty() && !options_.default_limits)
-      fail(limit->Row(), what + ": no speed limit (<limit velocity> must be > 0); add one or import with default limits");
+      fail(limit->Row(), what + ": no speed limit (<limit velocity> must be > 0); add one or import with default limits (default_limits, --default-limits)");
   }
 
   void check_tree() {

@@ -94,9 +94,14 @@ const std::vector<Case>& catalogue() {
        "prismatic_limit_too_far.urdf:11: joint 'j1': <limit lower> has -1e+16, beyond the 1e+06 m", "", {}},
       {"revolute_one_side_unlimited.urdf",
        "revolute_one_side_unlimited.urdf:11: joint 'j1': limits [0, 1e+16] rad: one side is unlimited", "", {}},
-      {"missing_limit.urdf", "missing_limit.urdf:7: joint 'j1' (revolute) has no <limit>", "", {}},
-      {"missing_velocity.urdf", "missing_velocity.urdf:11: joint 'j1': no speed limit (<limit velocity> must be > 0)", "",
-       {}},
+      {"missing_limit.urdf",
+       "missing_limit.urdf:7: joint 'j1' (revolute) has no <limit>; add one or import with default limits "
+       "(default_limits, --default-limits)",
+       "", {}},
+      {"missing_velocity.urdf",
+       "missing_velocity.urdf:11: joint 'j1': no speed limit (<limit velocity> must be > 0); add one or import with "
+       "default limits (default_limits, --default-limits)",
+       "", {}},
       {"unknown_joint_type.urdf", "unknown_joint_type.urdf:7: joint 'j1': unknown type 'hinge'", "", {}},
       {"planar_joint.urdf", "planar_joint.urdf:7: joint 'j1': planar joints are not supported", "", {}},
       {"bad_number.urdf", "bad_number.urdf:10: joint 'j1': <axis xyz> has 'x' where a finite number was expected", "", {}},
