@@ -469,12 +469,16 @@ class TreeBuilder {
       Mode child_mode = mode;
       if (mode == Mode::kNormal && legs_.count(other))
         child_mode = options_.leg_mode == LegMode::kDrop ? Mode::kDropped : Mode::kLocked;
+      else if (legs_.count(other))  // e.g. --legs r_hip,r_knee: the left leg would stay free
+        checker_.fail(checker_.link_line(other), "leg link " + quoted(other) + " lies inside the leg of " +
+                                                     quoted(leg_of_) + " (legs, --legs): name the first link of each leg");
       const Transform X_PC0 = to_transform(joint.parent_to_joint_origin_transform);
       // At joint value 0 (mimic joints at their offset).
       const Transform X_PC = X_PC0 * joint_motion(joint, joint.mimic ? joint.mimic->offset : 0.0);
       const Transform X_RO = X_RL * (forward ? X_PC : X_PC.inverse());
       if (joint.type == urdf::Joint::FIXED || child_mode != Mode::kNormal) {
         // Welded: fixed joint or locked leg at joint value 0.
+        if (mode == Mode::kNormal && child_mode != Mode::kNormal) leg_of_ = other;
         visit(other, body, X_BL * (forward ? X_PC : X_PC.inverse()), X_RO, info, child_mode, link_name);
         continue;
       }
@@ -509,6 +513,7 @@ class TreeBuilder {
   const UrdfChecker& checker_;
   const UrdfImportOptions& options_;
   std::set<std::string> legs_;
+  std::string leg_of_;  // the leg link of the locked or dropped leg being visited
   std::map<std::string, std::vector<const JointInfo*>> neighbours_;
 };
 

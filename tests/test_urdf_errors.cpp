@@ -43,6 +43,10 @@ const std::vector<Case>& catalogue() {
       {"unknown_root_link.urdf", "unknown_root_link.urdf: root link 'nope' is not defined in the URDF", "nope", {}},
       {"unknown_leg_link.urdf", "unknown_leg_link.urdf: leg link 'nope' is not defined in the URDF", "", {"leg", "nope"}},
       {"leg_is_root.urdf", "leg_is_root.urdf: leg link 'base' is the root link", "", {"base"}},
+      {"nested_legs.urdf",
+       "nested_legs.urdf:9: leg link 'shin_l' lies inside the leg of 'thigh_l' (legs, --legs): name the first link of "
+       "each leg",
+       "", {"thigh_l", "shin_l"}},
       {"missing_parent_link.urdf", "missing_parent_link.urdf:7: joint 'j1': parent link 'nowhere' is not defined", "", {}},
       {"joint_without_parent.urdf", "joint_without_parent.urdf:7: joint 'j1' has no <parent link=...>", "", {}},
       {"undefined_child_link.urdf", "undefined_child_link.urdf:13: joint 'j2': child link 'l2' is not defined", "", {}},
