@@ -53,6 +53,14 @@ rc=$?
 set -e
 [[ $rc -eq 2 ]] && grep -q "^error: --hands (WBM_TEST_HANDS): no joint of the robot moves frame 'world'" "$work/err3.txt" ||
   { cat "$work/err3.txt"; fail "unmoved hand: exit $rc"; }
+# ... and two hands on one arm (the elbow and the tool of the left arm).
+set +e
+scripts/check_model.sh "$work/massless.urdf" --hands left_tool,left_link4 --fixed-base --build-dir "$build_dir" \
+  >/dev/null 2>"$work/err5.txt"
+rc=$?
+set -e
+[[ $rc -eq 2 ]] && grep -q "^error: --hands (WBM_TEST_HANDS): 'left_tool' and 'left_link4' are on one arm" \
+  "$work/err5.txt" || { cat "$work/err5.txt"; fail "hands on one arm: exit $rc"; }
 # ... and a head that no joint turns on a fixed base (its 2-row view axis would be singular).
 set +e
 scripts/check_model.sh "$work/massless.urdf" --hands left_tool,right_tool --head world --fixed-base \

@@ -1,9 +1,11 @@
 #include "shipped_models.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <iostream>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 
@@ -102,12 +104,24 @@ ShippedModel model_from_environment() {
   try {
     const wbm::Model model = m.load();
     what = "--hands (WBM_TEST_HANDS): ";
+    std::vector<std::set<int>> arm_joints;  // the robot's joints that move each hand
     for (const std::string& hand : {m.left_hand, m.right_hand}) {
-      bool moved = false;  // by a joint of the robot, not only by the virtual dofs
+      std::set<int>& joints = arm_joints.emplace_back();
       for (const int b : model.moving_bodies(model.frame(model.frame_index(hand)).body))
-        moved = moved || model.dof(model.body(b).dof).role == wbm::DofRole::kJoint;
-      if (!moved) environment_error(what + "no joint of the robot moves frame '" + hand + "'");
+        if (model.dof(model.body(b).dof).role == wbm::DofRole::kJoint) joints.insert(b);
+      if (joints.empty())
+        environment_error(what + "no joint of the robot moves frame '" + hand +
+                          "' (it is welded to the root link, or lies in a locked leg, --legs)");
     }
+    // Two frames of one arm (every joint that moves one also moves the other): the tests
+    // need a hand on each arm; with one arm the identities and the convergence fail for
+    // reasons of the choice, not of the model.
+    auto within = [](const std::set<int>& a, const std::set<int>& b) {
+      return std::includes(b.begin(), b.end(), a.begin(), a.end());
+    };
+    if (within(arm_joints[0], arm_joints[1]) || within(arm_joints[1], arm_joints[0]))
+      environment_error(what + "'" + m.left_hand + "' and '" + m.right_hand +
+                        "' are on one arm (every joint that moves one moves the other): name a frame on each arm");
     what = "--head (WBM_TEST_HEAD): ";
     if (!m.head.empty()) {
       // On a fixed base only the robot's revolute joints can turn the view axis.
