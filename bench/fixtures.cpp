@@ -81,6 +81,18 @@ std::string fmt(const char* format, double a, double b = 0.0, double c = 0.0, do
   return buffer;
 }
 
+/// "; at its speed limit (within 1 %) most often: ..." naming the dof and the share of cycles, or "" if no dof
+/// reached its limit: which joint's speed limit the task set runs into (e.g. PR2's torso
+/// lift, 0.013 m/s in its URDF).
+std::string most_often_at_speed_limit(const wbm::Model& model, const Eigen::VectorXi& cycles_at_limit, int cycles) {
+  Eigen::Index dof = 0;
+  if (cycles_at_limit.maxCoeff(&dof) == 0) return "";
+  const wbm::Dof& d = model.dof(static_cast<int>(dof));
+  return "; at its speed limit (within 1 %) most often: '" + d.name + "' (" +
+         fmt(d.type == wbm::JointType::kPrismatic ? "%.3g m/s" : "%.3g rad/s", d.max_speed) + ", in " +
+         fmt("%.0f %%", 100.0 * cycles_at_limit[dof] / cycles) + " of the cycles)";
+}
+
 /// How the target of one wbm element moves (slowly, never converged).
 struct Motion {
   enum class Kind { kPosition, kCom, kDirection, kJoint };
@@ -789,6 +801,7 @@ void Fixture::check_wbm() {
   }
   const VectorXd q_start = c.q();
   int damped = 0, frozen = 0, null_motion = 0, scaled = 0, limited = 0, overdetermined = 0;
+  Eigen::VectorXi at_speed_limit = Eigen::VectorXi::Zero(model->num_dofs());  // cycles per dof
   double tracking = 0.0, travelled = 0.0;
   const int cycles = 3000;
   VectorXd previous = c.values();
@@ -808,6 +821,8 @@ void Fixture::check_wbm() {
     scaled += status.has(wbm::kNullSpaceSpeedScaled) || status.has(wbm::kNullSpaceJerkLimited) ||
               status.has(wbm::kTaskSpeedLimited);
     null_motion += c.solver().output().qdot_null.norm() > 0.0;
+    for (int i = 0; i < model->num_dofs(); ++i)
+      at_speed_limit[i] += std::abs(c.qdot()[i]) >= 0.99 * model->max_speeds()[i];  // within 1 %
     travelled += (c.values().segment(motions[0].t0, 3) - previous.segment(motions[0].t0, 3)).norm();
     previous = c.values();
     if (k >= 1000)
@@ -859,7 +874,8 @@ void Fixture::check_wbm() {
     note("WARNING: " + spec.id + ": the task set runs into this robot's joint limits, singularities or speed limits "
          "(damped, braked, at a limit or speed-limited in " + fmt("%.0f %%", 100.0 * limited / cycles) +
          " of the moving cycles; damped in " + fmt("%.0f %%", 100.0 * damped / cycles) + ", a dof frozen at its limit in " +
-         fmt("%.0f %%", 100.0 * frozen / cycles) + "): the hands follow their targets within " + fmt("%.2g m", tracking) +
+         fmt("%.0f %%", 100.0 * frozen / cycles) + most_often_at_speed_limit(*model, at_speed_limit, cycles) +
+         "): the hands follow their targets within " + fmt("%.2g m", tracking) +
          ", and the timed cycles include these slower paths");
   else if (mostly_damped)
     note("NOTE: " + spec.id + ": the task set is singular or near-singular on this robot (damped in " +
