@@ -160,9 +160,11 @@ Eigen::VectorXd parse_configuration(const std::string& text, const wbm::Model& m
   return Eigen::Map<Eigen::VectorXd>(values.data(), values.size());
 }
 
-int model_fk(ModelSource& source, const std::string& q_text, std::vector<std::string> frame_names, bool jacobian) {
+int model_fk(ModelSource& source, const std::string& q_text, std::vector<std::string> frame_names, bool jacobian,
+             bool fixed_base) {
   const wbm::Model model = source.load();
-  const Eigen::VectorXd q = parse_configuration(q_text, model);
+  const Eigen::VectorXd q = fixed_base ? wbm::upright_base_configuration(model, parse_configuration(q_text, model))
+                                       : parse_configuration(q_text, model);
   wbm::Data data(model);
   wbm::forward_kinematics(model, data, q);
   if (frame_names.empty())
@@ -313,12 +315,16 @@ int main(int argc, char** argv) {
   std::vector<std::string> fk_frames;
   bool fk_jacobian = false;
   bool fk_json = false;
+  bool fk_fixed_base = false;
   CLI::App* fk = model_cmd->add_subcommand("fk", "world poses (and Jacobians) of frames for a configuration");
   fk_source.add_to(*fk);
   fk->add_option("--q", q_text, "configuration, comma separated, in `model info` order (default: home)");
   fk->add_option("--frames", fk_frames, "frames to print (default: all)")->delimiter(',');
   fk->add_flag("--jacobian", fk_jacobian, "also print 6 x n Jacobians (rows: v_x v_y v_z w_x w_y w_z, world frame)");
   fk->add_flag("--json", fk_json, "JSON output (the only format)");
+  fk->add_flag("--fixed-base", fk_fixed_base,
+               "the base upright, as for a robot bolted to the world (scripts' --fixed-base, robot.fixed_base): the "
+               "virtual dofs at the heel's origin and the root's full height, untilted (their values in --q replaced)");
 
   ModelSource export_source;
   std::string export_out;
@@ -348,7 +354,7 @@ int main(int argc, char** argv) {
   }
   try {
     if (info->parsed()) return model_info(info_source, info_json);
-    if (fk->parsed()) return model_fk(fk_source, q_text, fk_frames, fk_jacobian);
+    if (fk->parsed()) return model_fk(fk_source, q_text, fk_frames, fk_jacobian, fk_fixed_base);
     if (exp->parsed()) return model_export(export_source, export_out, export_options);
     if (run->parsed()) return run_scenarios(run_files, run_out, run_no_report);
   } catch (const wbm::Error& e) {

@@ -127,6 +127,27 @@ TEST(Cli, ModelFkWithJacobianMatchesTheLibrary) {
   EXPECT_EQ(j["center_of_mass"].size(), 3u);
 }
 
+// --fixed-base: the virtual dofs upright (as scripts' --fixed-base and robot.fixed_base),
+// also where --q gives them other values; the joints keep theirs.
+TEST(Cli, ModelFkWithFixedBaseStandsUpright) {
+  const wbm::Model model = wbm::make_paper_model();
+  Eigen::VectorXd q = model.home();
+  q.setConstant(0.05);
+  std::ostringstream q_text;
+  for (int i = 0; i < q.size(); ++i) q_text << (i ? "," : "") << q[i];
+  const json j = parse(wbm_cli("model fk --fixed-base --q " + q_text.str() + " --frames l_hand_ref --json"));
+  const Eigen::VectorXd upright = wbm::upright_base_configuration(model, q);
+  ASSERT_EQ(j["q"].size(), static_cast<size_t>(model.num_dofs()));
+  for (int i = 0; i < model.num_dofs(); ++i) EXPECT_EQ(j["q"][i].get<double>(), upright[i]) << model.dof(i).name;
+  EXPECT_EQ(j["q"][model.virtual_dofs().ub_pitch].get<double>(), 0.0);
+  EXPECT_EQ(j["q"][model.virtual_dofs().ub_z].get<double>(), model.dof(model.virtual_dofs().ub_z).upper);
+  EXPECT_EQ(j["q"][model.virtual_dofs().ub_yaw + 1].get<double>(), 0.05);  // a joint keeps its value
+  wbm::Data data(model);
+  wbm::forward_kinematics(model, data, upright);
+  const wbm::Vector3 p = wbm::frame_pose(model, data, model.frame_index("l_hand_ref")).p;
+  for (int r = 0; r < 3; ++r) EXPECT_NEAR(j["frames"]["l_hand_ref"]["position"][r].get<double>(), p[r], 1e-12);
+}
+
 TEST(Cli, ModelFkWithConfiguration) {
   std::string q;
   const wbm::Model model = wbm::make_paper_model();
