@@ -352,6 +352,7 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
     if (tty && (k % 200 == 0 || k == steps)) progress_bar(k * s.dt, s.duration, k == steps);
   }
   if (walking) run->footsteps = walking->footsteps();
+  run->balance_on_at_end = balance_on;
   return run;
 }
 
@@ -474,7 +475,8 @@ json summarize(const ScenarioRun& run) {
   if (!run.balance.empty()) {
     double min_margin = 1e300;
     for (const Eigen::VectorXd& b : run.balance) min_margin = std::min(min_margin, b[6]);
-    out["balance"] = {{"min_com_margin", min_margin}, {"final_com_margin", run.balance.back()[6]}};
+    out["balance"] = {{"min_com_margin", min_margin}, {"final_com_margin", run.balance.back()[6]},
+                      {"on_at_end", run.balance_on_at_end}};
   }
   out["nullspace_cost"] = {{"initial", run.cost.front()}, {"final", run.cost.back()},
                            {"max", *std::max_element(run.cost.begin(), run.cost.end())}};

@@ -281,9 +281,12 @@ int run_scenarios(const std::vector<std::string>& files, const std::string& out,
       const double margin = summary["balance"]["final_com_margin"].get<double>();
       std::ostringstream cm;
       cm << std::fixed << std::setprecision(1) << std::abs(margin) * 100.0;
+      const bool on = summary["balance"]["on_at_end"].get<bool>();
       std::cerr << "  balance: centre of mass " << cm.str() << " cm "
-                << (margin >= 0.0 ? "inside the feet at the end\n"
-                                  : "OUTSIDE the feet at the end (the upper-body shift could not bring it over them)\n");
+                << (margin >= 0.0 ? "inside the feet at the end"
+                    : on          ? "OUTSIDE the feet at the end (the upper-body shift could not bring it over them)"
+                                  : "OUTSIDE the feet at the end")
+                << (on ? "\n" : " (balance off)\n");
     }
     if (summary.contains("walking")) {
       const json& w = summary["walking"];

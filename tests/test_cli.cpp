@@ -372,20 +372,28 @@ TEST(Cli, RunSaysHowBalanceAndWalkingEnded) {
   std::ofstream(outside) << "name: out\nduration: 0.2\nfrozen: [heel_x, heel_y, heel_yaw]\nbalance: {enabled: true}\n"
                          << "feet: {length: 0.04, width: 0.1}\n" << tasks;
   std::ofstream(walk) << "name: walk\nduration: 0.2\nfrozen: [heel_x, heel_y, heel_yaw]\nwalking: {enabled: true}\n" << tasks;
-  const CliRun r = wbm_cli("run '" + inside + "' '" + outside + "' '" + walk + "' --out '" + base + "_dir' --no-report");
+  // The same short feet with balance configured but off: no shift was tried.
+  const std::string off = base + "_off.yaml";
+  std::ofstream(off) << "name: off\nduration: 0.2\nfrozen: [heel_x, heel_y, heel_yaw]\nbalance: {enabled: false}\n"
+                     << "feet: {length: 0.04, width: 0.1}\n" << tasks;
+  const CliRun r = wbm_cli("run '" + inside + "' '" + outside + "' '" + walk + "' '" + off + "' --out '" + base +
+                           "_dir' --no-report");
   EXPECT_EQ(r.status, 0) << r.err;
   const size_t in = r.err.find("scenario in"), out = r.err.find("scenario out"), w = r.err.find("scenario walk");
   ASSERT_TRUE(in != std::string::npos && out != std::string::npos && w != std::string::npos) << r.err;
+  const size_t o = r.err.find("scenario off");
+  ASSERT_NE(o, std::string::npos) << r.err;
+  EXPECT_NE(r.err.substr(o).find(" cm OUTSIDE the feet at the end (balance off)\n"), std::string::npos) << r.err;
   EXPECT_NE(r.err.substr(in, out - in).find(" cm inside the feet at the end"), std::string::npos) << r.err;
   EXPECT_NE(r.err.substr(out, w - out).find(" cm OUTSIDE the feet at the end (the upper-body shift could not"),
             std::string::npos)
       << r.err;
-  EXPECT_NE(r.err.substr(w).find("  walking: 0 footsteps in 0 walks\n"), std::string::npos) << r.err;
-  EXPECT_EQ(r.err.substr(w).find("balance:"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.substr(w, o - w).find("  walking: 0 footsteps in 0 walks\n"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.substr(w, o - w).find("balance:"), std::string::npos) << r.err;
   // And how close the joints came to their speed limits and to the bound on their rates' change.
   EXPECT_NE(r.err.substr(in, out - in).find("  joints: fastest at 0."), std::string::npos) << r.err;
   EXPECT_NE(r.err.substr(in, out - in).find(" of its bound k v_max (upper_body_"), std::string::npos) << r.err;
-  for (const std::string& f : {inside, outside, walk}) std::remove(f.c_str());
+  for (const std::string& f : {inside, outside, walk, off}) std::remove(f.c_str());
   std::filesystem::remove_all(base + "_dir");
 }
 
