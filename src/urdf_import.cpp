@@ -431,6 +431,9 @@ class TreeBuilder {
   /// Frame (link or reversed joint's body) -> the frame it hangs from (Frame::parent).
   std::map<std::string, std::string> parent_of_;
   double lowest_leg_z_ = std::numeric_limits<double>::infinity();
+  std::string lowest_leg_link_;
+  /// The legs' length: the largest distance of a leg's link from its first link.
+  double leg_length_ = 0.0;
 
  private:
   enum class Mode { kNormal, kLocked, kDropped };
@@ -448,7 +451,11 @@ class TreeBuilder {
         frames_.push_back({link_name, body, X_BL});
       merge_inertial(specs_[body].body.inertial, link_inertial(link, X_BL));
     }
-    if (mode != Mode::kNormal) lowest_leg_z_ = std::min(lowest_leg_z_, X_RL.p.z());
+    if (mode != Mode::kNormal && X_RL.p.z() < lowest_leg_z_) {
+      lowest_leg_z_ = X_RL.p.z();
+      lowest_leg_link_ = link_name;
+    }
+    if (mode != Mode::kNormal) leg_length_ = std::max(leg_length_, (X_RL.p - leg_origin_).norm());
     for (const JointInfo* info : neighbours_.at(link_name)) {
       if (info == from) continue;
       const urdf::Joint& joint = *urdf_.joints_.at(info->name);
@@ -478,7 +485,10 @@ class TreeBuilder {
       const Transform X_RO = X_RL * (forward ? X_PC : X_PC.inverse());
       if (joint.type == urdf::Joint::FIXED || child_mode != Mode::kNormal) {
         // Welded: fixed joint or locked leg at joint value 0.
-        if (mode == Mode::kNormal && child_mode != Mode::kNormal) leg_of_ = other;
+        if (mode == Mode::kNormal && child_mode != Mode::kNormal) {
+          leg_of_ = other;
+          leg_origin_ = X_RO.p;
+        }
         visit(other, body, X_BL * (forward ? X_PC : X_PC.inverse()), X_RO, info, child_mode, link_name);
         continue;
       }
@@ -514,6 +524,7 @@ class TreeBuilder {
   const UrdfImportOptions& options_;
   std::set<std::string> legs_;
   std::string leg_of_;  // the leg link of the locked or dropped leg being visited
+  Vector3 leg_origin_ = Vector3::Zero();  // where it is (upper-body frame, zero joint values)
   std::map<std::string, std::vector<const JointInfo*>> neighbours_;
 };
 
@@ -633,7 +644,27 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
     msg << source << ": the root height (root_height, --root-height) must be finite and > 0 m, got " << height;
     throw ParseError(msg.str());
   }
-  if (std::isnan(height)) height = std::isfinite(tree.lowest_leg_z_) ? -tree.lowest_leg_z_ : 1.0;
+  if (std::isnan(height) && std::isfinite(tree.lowest_leg_z_)) {
+    // Measured from the legs: they must point down from the root, their lowest link (at
+    // zero joint values) at least a tenth of the legs' length below the root link's origin.
+    // A root link turned upside down or on its side (root_rpy wrong or missing) leaves the
+    // legs level with the root or above it; such a "height" of millimetres (Poppy's root
+    // turned by roll 3.14159: 1.2e-8 m; by roll pi/2: 5 mm of its 0.39 m legs) was accepted
+    // before, and the robot stood on its head. Only a tenth: legs may splay or fold (random
+    // H1 variants: 0.57 m down with 2.0 m long legs), and a root turned by pitch pi/2 (legs
+    // forward, 0.07 of 0.39 m down on Poppy) is not told from such a robot.
+    const double depth = -tree.lowest_leg_z_;
+    if (depth > 0.0 && depth < 0.1 * tree.leg_length_) {
+      std::ostringstream msg;
+      msg << "leg link " << quoted(tree.lowest_leg_link_) << ", the legs' lowest at zero joint values, is " << depth
+          << " m below the root link's origin, less than a tenth of the legs' length (" << tree.leg_length_
+          << " m from a leg's first link to its farthest): the legs do not point down. If the root link's z axis is "
+             "not up, give its orientation (root_rpy, --root-rpy); or give the root height (root_height, --root-height)";
+      checker.fail(checker.link_line(tree.lowest_leg_link_), msg.str());
+    }
+    height = depth;
+  }
+  if (std::isnan(height)) height = 1.0;
   if (!(height > 0.0))
     throw ParseError(source + ": the root height above the ground must be > 0 m (the legs' lowest link is not below the "
                               "root: give the root height explicitly, or, if the root link's z axis is not up, its "

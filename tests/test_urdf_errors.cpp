@@ -43,6 +43,11 @@ const std::vector<Case>& catalogue() {
       {"unknown_root_link.urdf", "unknown_root_link.urdf: root link 'nope' is not defined in the URDF", "nope", {}},
       {"unknown_leg_link.urdf", "unknown_leg_link.urdf: leg link 'nope' is not defined in the URDF", "", {"leg", "nope"}},
       {"leg_is_root.urdf", "leg_is_root.urdf: leg link 'base' is the root link", "", {"base"}},
+      {"legs_sideways.urdf",
+       "legs_sideways.urdf:10: leg link 'shin_l', the legs' lowest at zero joint values, is 0.02 m below the root link's "
+       "origin, less than a tenth of the legs' length (0.4005 m from a leg's first link to its farthest): the legs do not "
+       "point down. If the root link's z axis is not up, give its orientation (root_rpy, --root-rpy)",
+       "", {"thigh_l", "thigh_r"}},
       {"nested_legs.urdf",
        "nested_legs.urdf:9: leg link 'shin_l' lies inside the leg of 'thigh_l' (legs, --legs): name the first link of "
        "each leg",
