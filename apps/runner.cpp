@@ -15,6 +15,7 @@
 
 #include <Eigen/SVD>
 
+#include "closest_names.hpp"
 #include "report_writer.hpp"
 #include "wbm/balance.hpp"
 #include "wbm/errors.hpp"
@@ -56,6 +57,20 @@ std::unique_ptr<TaskElement> make_element(const Model& model, const ScenarioTask
   return e;
 }
 
+/// "FIELD: " where a field is known (an event's), else "".
+std::string where(const std::string& field) { return field.empty() ? "" : field + ": "; }
+
+/// " (did you mean 'x'?)", or the element names when none is close.
+std::string element_hint(const TaskStack& stack, const std::string& name) {
+  std::vector<std::string> names;
+  for (int i = 0; i < stack.num_elements(); ++i) names.push_back(stack.element(i).name());
+  const std::string close = internal::did_you_mean(name, names);
+  if (!close.empty() || names.empty()) return close;
+  std::string all;
+  for (const std::string& n : names) all += (all.empty() ? "" : ", ") + n;
+  return " (the elements: " + all + ")";
+}
+
 /// Rows of the task vector named by "element" or "element.component".
 std::vector<int> resolve_rows(const Scenario& s, const Controller& c, const RowSelection& sel) {
   const TaskStack& stack = c.tasks();
@@ -64,7 +79,7 @@ std::vector<int> resolve_rows(const Scenario& s, const Controller& c, const RowS
   int element = -1;
   for (int i = 0; i < stack.num_elements(); ++i)
     if (stack.element(i).name() == name) element = i;
-  if (element < 0) fail(s, sel.line, "no task element named '" + name + "'");
+  if (element < 0) fail(s, sel.line, where(sel.field) + "no task element named '" + name + "'" + element_hint(stack, name));
   const int r0 = stack.row_offset(element), dim = stack.element(element).dim();
   std::vector<int> rows;
   if (dot == std::string::npos) {
@@ -80,7 +95,9 @@ std::vector<int> resolve_rows(const Scenario& s, const Controller& c, const RowS
   if (type == "joints") names = s.tasks[element].dofs;
   for (int r = 0; r < dim; ++r)
     if (names[r] == component || std::to_string(r) == component) return {r0 + r};
-  fail(s, sel.line, "task element '" + name + "' has no row '" + component + "'");
+  std::string valid;
+  for (int r = 0; r < dim; ++r) valid += (r ? ", " : "") + name + "." + names[r];
+  fail(s, sel.line, where(sel.field) + "task element '" + name + "' has no row '" + component + "' (its rows: " + valid + ")");
 }
 
 /// Scalar distance between a value and a target of an element (m, rad). For elements whose
@@ -198,22 +215,30 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
   std::vector<Resolved> events;
   for (const ScenarioEvent& ev : s.events) {
     Resolved r;
-    auto element_of = [&](const std::string& name, const Eigen::VectorXd& v, bool relative) {
+    // `k`: the entry's index in its mapping (its line, where read from a file).
+    auto element_of = [&](const std::string& name, const Eigen::VectorXd& v, bool relative, size_t k) {
+      const std::vector<int>& lines = relative ? ev.relative_target_lines : ev.target_lines;
+      const int line = k < lines.size() ? lines[k] : ev.line;
+      const std::string field = (ev.field.empty() ? "" : ev.field + ".") + (relative ? "relative_targets" : "targets");
       int e = -1;
       for (int i = 0; i < stack.num_elements(); ++i)
         if (stack.element(i).name() == name) e = i;
-      if (e < 0) fail(s, ev.line, "targets: no task element named '" + name + "'");
-      if (v.size() != stack.element(e).target_dim())
-        fail(s, ev.line, "targets." + name + ": expected " + std::to_string(stack.element(e).target_dim()) +
-                             " values, got " + std::to_string(v.size()));
+      if (e < 0) fail(s, line, field + ": no task element named '" + name + "'" + element_hint(stack, name));
+      const int dim = stack.element(e).target_dim();
+      if (v.size() != dim)
+        fail(s, line, field + "." + name + ": expected " + std::to_string(dim) + (dim == 1 ? " value" : " values") +
+                          ", got " + std::to_string(v.size()));
       if (relative && stack.element(e).target_kind() == TargetKind::kDirection)
-        fail(s, ev.line, "relative_targets." + name + ": axis targets must be absolute directions");
+        fail(s, line, field + "." + name + ": axis targets must be absolute directions");
       if (!relative && stack.element(e).target_kind() == TargetKind::kDirection && v.norm() < 1e-9)
-        fail(s, ev.line, "targets." + name + ": the direction must not be zero");
+        fail(s, line, field + "." + name + ": the direction must not be zero");
       return e;
     };
-    for (const auto& [name, v] : ev.targets) r.targets.emplace_back(element_of(name, v, false), v);
-    for (const auto& [name, v] : ev.relative_targets) r.relative.emplace_back(element_of(name, v, true), v);
+    for (size_t k = 0; k < ev.targets.size(); ++k)
+      r.targets.emplace_back(element_of(ev.targets[k].first, ev.targets[k].second, false, k), ev.targets[k].second);
+    for (size_t k = 0; k < ev.relative_targets.size(); ++k)
+      r.relative.emplace_back(element_of(ev.relative_targets[k].first, ev.relative_targets[k].second, true, k),
+                              ev.relative_targets[k].second);
     for (const RowSelection& sel : ev.activate)
       for (int row : resolve_rows(s, c, sel)) r.on.push_back(row);
     for (const RowSelection& sel : ev.deactivate)

@@ -110,17 +110,20 @@ FilterParameters read_filter(const Reader& r, const YAML::Node& node, const std:
 }
 
 std::vector<std::pair<std::string, Eigen::VectorXd>> read_targets(const Reader& r, const YAML::Node& node,
-                                                                   const std::string& field) {
+                                                                   const std::string& field, std::vector<int>& lines) {
   if (!node.IsMap()) r.fail(node, field, "expected a mapping element: [values]");
   std::vector<std::pair<std::string, Eigen::VectorXd>> out;
-  for (const auto& kv : node) out.emplace_back(kv.first.Scalar(), r.vector(kv.second, field + "." + kv.first.Scalar()));
+  for (const auto& kv : node) {
+    out.emplace_back(kv.first.Scalar(), r.vector(kv.second, field + "." + kv.first.Scalar()));
+    lines.push_back(r.line(kv.first));
+  }
   return out;
 }
 
 std::vector<RowSelection> read_rows(const Reader& r, const YAML::Node& node, const std::string& field) {
   std::vector<RowSelection> out;
   const std::vector<std::string> names = r.strings(node, field);
-  for (const std::string& n : names) out.push_back({n, r.line(node)});
+  for (const std::string& n : names) out.push_back({n, r.line(node), field});
   return out;
 }
 
@@ -343,8 +346,10 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
             << " s; duration " << s.duration << " s): the event would never happen";
         r.fail(e["t"], field + ".t", msg.str());
       }
-      if (e["targets"]) ev.targets = read_targets(r, e["targets"], field + ".targets");
-      if (e["relative_targets"]) ev.relative_targets = read_targets(r, e["relative_targets"], field + ".relative_targets");
+      ev.field = field;
+      if (e["targets"]) ev.targets = read_targets(r, e["targets"], field + ".targets", ev.target_lines);
+      if (e["relative_targets"])
+        ev.relative_targets = read_targets(r, e["relative_targets"], field + ".relative_targets", ev.relative_target_lines);
       if (e["activate"]) ev.activate = read_rows(r, e["activate"], field + ".activate");
       if (e["deactivate"]) ev.deactivate = read_rows(r, e["deactivate"], field + ".deactivate");
       if (e["freeze"]) ev.freeze = r.strings(e["freeze"], field + ".freeze");

@@ -41,6 +41,7 @@ struct ScenarioTask {
 struct RowSelection {
   std::string text;
   int line = 0;
+  std::string field;  ///< where it was given, e.g. "timeline[2].deactivate"
 };
 
 struct ScenarioEvent {
@@ -48,6 +49,8 @@ struct ScenarioEvent {
   int line = 0;
   std::vector<std::pair<std::string, Eigen::VectorXd>> targets;           ///< absolute
   std::vector<std::pair<std::string, Eigen::VectorXd>> relative_targets;  ///< added to the value at that time
+  std::string field;  ///< "timeline[i]", for errors found when the elements are known
+  std::vector<int> target_lines, relative_target_lines;  ///< the line of each entry (if read from a file)
   std::vector<RowSelection> activate, deactivate;
   std::vector<std::string> freeze, release;
   int balance = -1;  ///< -1 unchanged, 0 off, 1 on

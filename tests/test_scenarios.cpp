@@ -924,12 +924,20 @@ TEST(Scenarios, BadFilesNameTheLineAndField) {
 
 TEST(Scenarios, UnknownNamesInTheTimelineAreReportedBeforeRunning) {
   const BadScenario cases[] = {
-      {"name: x\ntasks: [{name: a, type: position, frame: l_hand_ref}]\ntimeline:\n  - t: 0.5\n    targets: {b: [1, 2, 3]}\n",
-       "bad.yaml:4: targets: no task element named 'b'"},
+      // The event's field and the entry's line; the closest element name, or all of them.
+      {"name: x\ntasks: [{name: a, type: position, frame: l_hand_ref}]\ntimeline:\n  - t: 0.5\n    targets: {nope: [1, 2, 3]}\n",
+       "bad.yaml:5: timeline[0].targets: no task element named 'nope' (the elements: a)"},
+      {"name: x\ntasks: [{name: l_hand, type: position, frame: l_hand_ref}]\ntimeline:\n  - t: 0.5\n    targets:\n"
+       "      l_hand: [1, 2, 3]\n      l_hnd: [1, 2, 3]\n",
+       "bad.yaml:7: timeline[0].targets: no task element named 'l_hnd' (did you mean 'l_hand'?)"},
       {"name: x\ntasks: [{name: a, type: position, frame: l_hand_ref}]\ntimeline:\n  - t: 0.5\n    targets: {a: [1, 2]}\n",
-       "bad.yaml:4: targets.a: expected 3 values, got 2"},
+       "bad.yaml:5: timeline[0].targets.a: expected 3 values, got 2"},
+      {"name: x\ntasks: [{name: a, type: joints, dofs: [l_elbow]}]\ntimeline:\n  - t: 0.5\n    relative_targets: {a: [1, 2]}\n",
+       "bad.yaml:5: timeline[0].relative_targets.a: expected 1 value, got 2"},
       {"name: x\ntasks: [{name: a, type: position, frame: l_hand_ref}]\ntimeline:\n  - t: 0.5\n    activate: [a.w]\n",
-       "bad.yaml:5: task element 'a' has no row 'w'"},
+       "bad.yaml:5: timeline[0].activate: task element 'a' has no row 'w' (its rows: a.x, a.y, a.z)"},
+      {"name: x\ntasks: [{name: hand, type: position, frame: l_hand_ref}]\ntimeline:\n  - t: 0.5\n    deactivate: [hnd]\n",
+       "bad.yaml:5: timeline[0].deactivate: no task element named 'hnd' (did you mean 'hand'?)"},
       // Names the model lacks: the scenario's line and field, then the model's message.
       {"name: x\ntasks:\n  - {name: b, type: axis, frame: head_camera}\n  - {name: a, type: position, frame: no_frame}\n",
        "bad.yaml:4: tasks[1]: model 'paper_asimo_like' has no frame named 'no_frame'"},
