@@ -34,7 +34,7 @@ struct ScenarioRun {
   std::vector<Footstep> footsteps;
   FootGeometry feet;                     ///< the feet used for the support polygon
   std::vector<SupportPolygon> support;   ///< per cycle when balance or walking runs (empty otherwise)
-  bool balance_on_at_end = false;        ///< the balance module shifted the upper body in the last cycle
+  bool balance_on_at_end = false;        ///< balance was switched on in the last cycle (scenario or its events)
 
   int num_cycles() const { return static_cast<int>(time.size()); }
   int element(const std::string& name) const { return controller->tasks().element_index(name); }

@@ -8,13 +8,13 @@
 #include <set>
 #include <sstream>
 
-#include <console_bridge/console.h>
 #include <tinyxml.h>
 #include <urdf_parser/urdf_parser.h>
 
 #include "wbm/errors.hpp"
 
 #include "closest_names.hpp"
+#include "console_capture.hpp"
 
 namespace wbm {
 namespace {
@@ -335,20 +335,6 @@ class UrdfChecker {
   std::string root_;
 };
 
-/// Collects urdfdom's console output while it parses, so that its message can be shown.
-class ConsoleCapture : public console_bridge::OutputHandler {
- public:
-  ConsoleCapture() { console_bridge::useOutputHandler(this); }
-  ~ConsoleCapture() override { console_bridge::restorePreviousOutputHandler(); }
-  void log(const std::string& text, console_bridge::LogLevel level, const char*, int) override {
-    if (level >= console_bridge::CONSOLE_BRIDGE_LOG_WARN) text_ += (text_.empty() ? "" : "; ") + text;
-  }
-  const std::string& text() const { return text_; }
-
- private:
-  std::string text_;
-};
-
 Transform to_transform(const urdf::Pose& pose) {
   Transform X;
   X.p = {pose.position.x, pose.position.y, pose.position.z};
@@ -612,7 +598,7 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
   urdf::ModelInterfaceSharedPtr urdf;
   std::string urdfdom_message;
   {
-    ConsoleCapture capture;
+    internal::ConsoleCapture capture;
     urdf = urdf::parseURDF(xml);
     urdfdom_message = capture.text();
   }

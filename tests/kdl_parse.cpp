@@ -2,36 +2,20 @@
 
 #include <functional>
 
-#include <console_bridge/console.h>
 #include <kdl_parser/kdl_parser.hpp>
 #include <urdf_parser/urdf_parser.h>
+
+#include "console_capture.hpp"
 
 namespace wbm_test {
 namespace {
 
-/// Collects console_bridge's messages while it is installed (one parse).
-class MessageCounter : public console_bridge::OutputHandler {
- public:
-  explicit MessageCounter(KdlParse& result) : result_(result) { console_bridge::useOutputHandler(this); }
-  ~MessageCounter() override { console_bridge::restorePreviousOutputHandler(); }
-  MessageCounter(const MessageCounter&) = delete;
-  MessageCounter& operator=(const MessageCounter&) = delete;
-  void log(const std::string& text, console_bridge::LogLevel level, const char*, int) override {
-    // What console_bridge prints by default: warnings and errors (not urdfdom's debug lines).
-    if (level < console_bridge::CONSOLE_BRIDGE_LOG_WARN) return;
-    if (result_.messages++ == 0) result_.first_message = text;
-  }
-
- private:
-  KdlParse& result_;
-};
-
 KdlParse parse(const std::function<bool()>& run) {
   KdlParse result;
-  {
-    MessageCounter counter(result);
-    result.ok = run();
-  }
+  wbm::internal::ConsoleCapture capture;
+  result.ok = run();
+  result.messages = static_cast<int>(capture.messages().size());
+  if (result.messages > 0) result.first_message = capture.messages().front();
   return result;
 }
 

@@ -327,3 +327,36 @@ INSTANTIATE_TEST_SUITE_P(ImportVariants, KdlComparison, testing::ValuesIn(wbm_te
 INSTANTIATE_TEST_SUITE_P(ShippedUrdfs, KdlWholeTree, testing::ValuesIn(wbm_test::shipped_urdf_models()), wbm_test::ModelIdName());
 
 }  // namespace
+
+namespace {
+
+// urdfdom's messages while the KDL reference reads a file (one per link with a nameless
+// visual material, as in Unitree's H1_2) are counted, the first kept, and not printed;
+// the tree is still built.
+TEST(KdlParse, UrdfdomMessagesAreCountedNotPrinted) {
+  std::string xml = "<?xml version=\"1.0\"?>\n<robot name=\"r\">\n";
+  for (const char* link : {"base", "l1", "l2"})
+    xml += std::string("<link name=\"") + link +
+           "\"><inertial><mass value=\"1\"/><inertia ixx=\"0.1\" ixy=\"0\" ixz=\"0\" iyy=\"0.1\" iyz=\"0\" "
+           "izz=\"0.1\"/></inertial><visual><geometry><box size=\"0.1 0.1 0.1\"/></geometry><material/></visual></link>\n";
+  for (const char* joint : {"j1", "j2"})
+    xml += std::string("<joint name=\"") + joint + "\" type=\"revolute\"><parent link=\"" +
+           (joint[1] == '1' ? "base" : "l1") + "\"/><child link=\"" + (joint[1] == '1' ? "l1" : "l2") +
+           "\"/><axis xyz=\"0 0 1\"/><limit lower=\"-1\" upper=\"1\" effort=\"1\" velocity=\"1\"/></joint>\n";
+  xml += "</robot>\n";
+  KDL::Tree tree;
+  testing::internal::CaptureStdout();
+  testing::internal::CaptureStderr();
+  const wbm_test::KdlParse parsed = wbm_test::kdl_tree_from_string(xml, tree);
+  const std::string out = testing::internal::GetCapturedStdout(), err = testing::internal::GetCapturedStderr();
+  ASSERT_TRUE(parsed.ok) << parsed.summary();
+  EXPECT_EQ(tree.getNrOfJoints(), 2u);
+  EXPECT_GE(parsed.messages, 3) << parsed.summary();  // a message per link at least
+  EXPECT_NE(parsed.first_message.find("material"), std::string::npos) << parsed.first_message;
+  EXPECT_EQ(out.find("material"), std::string::npos) << out;
+  EXPECT_EQ(err.find("material"), std::string::npos) << err;
+  EXPECT_NE(parsed.summary().find(" messages while kdl_parser read the file (the first: '"), std::string::npos)
+      << parsed.summary();
+}
+
+}  // namespace
