@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <sstream>
 #include <unordered_set>
 
@@ -198,6 +199,9 @@ Model ModelBuilder::build() {
     }
     if (!std::isfinite(dof.max_speed) || dof.max_speed <= 0.0)
       throw ModelError(what + ": speed limit must be finite and > 0, got " + std::to_string(dof.max_speed));
+    if (!(std::isfinite(dof.max_effort) && dof.max_effort >= 0.0))
+      throw ModelError(what + ": effort limit must be finite and >= 0 (0: not given), got " +
+                       std::to_string(dof.max_effort));
   }
   names.clear();
   for (int b = 0; b < nb; ++b) {
@@ -241,6 +245,23 @@ Model ModelBuilder::build() {
       throw ModelError(msg.str());
     }
   }
+  // Joint names kept for the export (Body and Frame::joint_name) name one joint each: a
+  // dof's own, a mimic or a fixed joint; a body's may be its dof's name (the dof's joint).
+  std::map<std::string, std::string> joint_owner;
+  auto claim = [&](const std::string& joint, const std::string& owner) {
+    const auto [at, inserted] = joint_owner.emplace(joint, owner);
+    if (!inserted && at->second != owner)
+      throw ModelError("joint name " + quoted(joint) + " is given to " + owner + " and to " + at->second +
+                       " (a joint name, Body or Frame::joint_name, must name one joint)");
+  };
+  for (const Dof& dof : m.dofs_) claim(dof.name, "dof " + quoted(dof.name));
+  for (const Body& body : m.bodies_)
+    if (!body.joint_name.empty())
+      claim(body.joint_name, body.dof >= 0 && body.joint_name == m.dofs_[body.dof].name
+                                 ? "dof " + quoted(body.joint_name)
+                                 : "body " + quoted(body.name));
+  for (const Frame& f : m.frames_)
+    if (!f.joint_name.empty()) claim(f.joint_name, "frame " + quoted(f.name));
   const int nf = m.num_frames();
   for (int i = 0; i < nf; ++i) {
     const Frame& f = m.frames_[i];

@@ -1,6 +1,7 @@
 #include <charconv>
 #include <functional>
 #include <iomanip>
+#include <set>
 #include <sstream>
 
 #include "wbm/errors.hpp"
@@ -95,23 +96,16 @@ std::string export_urdf(const Model& model, const UrdfExportOptions& options) {
   out << "  <link name=\"" << root_link << "\">\n";
   if (!whole_tree) write_inertial(out, model.body(root).inertial);
   out << "  </link>\n";
-  if (!whole_tree && v.heel_body >= 0 && model.body(v.heel_body).inertial.mass > 0.0) {
-    // The heel body's mass, welded below the upper body at the home pose.
-    Data data(model);
-    forward_kinematics(model, data, model.home());
-    const Transform X_UH = data.X_WB[root].inverse() * data.X_WB[v.heel_body];
-    out << "  <link name=\"heel_mass\">\n";
-    write_inertial(out, model.body(v.heel_body).inertial);
-    out << "  </link>\n  <joint name=\"heel_mass_joint\" type=\"fixed\">\n    <parent link=\""
-        << root_link << "\"/>\n    <child link=\"heel_mass\"/>\n    " << origin(X_UH) << "\n  </joint>\n";
-  }
   // Each dof's URDF joint (named as the dof, carrying its limits) is a body it drives with
   // multiplier 1 and offset 0; the other bodies it drives are <mimic> joints of it. Not
-  // simply the first body: after re-rooting, a reversed mimic joint can come first.
+  // simply the first body: after re-rooting, a reversed mimic joint can come first; the body
+  // whose joint was the dof's own in the source (Body::joint_name as the dof's) is preferred.
   std::vector<int> primary_body(model.num_dofs(), -1);
   for (int b = model.num_bodies() - 1; b > root; --b) {
     const Body& body = model.body(b);
-    if (body.dof >= 0 && body.multiplier == 1.0 && body.offset == 0.0) primary_body[body.dof] = b;
+    if (body.dof < 0 || body.multiplier != 1.0 || body.offset != 0.0) continue;
+    const int current = primary_body[body.dof];
+    if (current < 0 || model.body(current).joint_name != model.dof(body.dof).name) primary_body[body.dof] = b;
   }
   for (int b = root + 1; b < model.num_bodies(); ++b) {
     const Body& body = model.body(b);
@@ -119,6 +113,34 @@ std::string export_urdf(const Model& model, const UrdfExportOptions& options) {
       throw ModelError("export_urdf: dof '" + model.dof(body.dof).name + "' drives no body with multiplier 1 and offset "
                        "0 (body '" + body.name + "' has " + std::to_string(body.multiplier) + " and " +
                        std::to_string(body.offset) + "); a URDF joint cannot scale its own value");
+  }
+  // Joint names: the source's where the model kept them (mimic and fixed joints, Body and
+  // Frame::joint_name), the dof's for its primary body; otherwise the child link's name with
+  // "_joint", and underscores appended while another joint has that name.
+  std::set<std::string> joint_names;
+  for (int b = root + 1; b < model.num_bodies(); ++b) {
+    const Body& body = model.body(b);
+    if (body.dof >= 0 && primary_body[body.dof] == b) joint_names.insert(model.dof(body.dof).name);
+    else if (!body.joint_name.empty()) joint_names.insert(body.joint_name);
+  }
+  for (const Frame& f : model.frames())
+    if (!f.joint_name.empty()) joint_names.insert(f.joint_name);
+  auto joint_name = [&](const std::string& kept, const std::string& link) {
+    if (!kept.empty()) return kept;
+    std::string name = link + "_joint";
+    while (!joint_names.insert(name).second) name += "_";
+    return name;
+  };
+  if (!whole_tree && v.heel_body >= 0 && model.body(v.heel_body).inertial.mass > 0.0) {
+    // The heel body's mass, welded below the upper body at the home pose.
+    Data data(model);
+    forward_kinematics(model, data, model.home());
+    const Transform X_UH = data.X_WB[root].inverse() * data.X_WB[v.heel_body];
+    const std::string heel_link = unused_link_name(model, "heel_mass");
+    out << "  <link name=\"" << heel_link << "\">\n";
+    write_inertial(out, model.body(v.heel_body).inertial);
+    out << "  </link>\n  <joint name=\"" << joint_name("", heel_link) << "\" type=\"fixed\">\n    <parent link=\""
+        << root_link << "\"/>\n    <child link=\"" << heel_link << "\"/>\n    " << origin(X_UH) << "\n  </joint>\n";
   }
   // A welded link (a frame that is not a body's own) is written just before the first joint
   // that hangs from it, or at the end if none does. The import numbers the dofs depth-first,
@@ -132,7 +154,8 @@ std::string export_urdf(const Model& model, const UrdfExportOptions& options) {
     frame_written[i] = true;
     if (f.parent >= 0) write_frame(f.parent);
     const auto [parent_link, X_PF] = hang(f, f.body, f.X_BF);
-    out << "  <link name=\"" << f.name << "\"/>\n  <joint name=\"" << f.name << "_joint\" type=\"fixed\">\n    <parent link=\""
+    out << "  <link name=\"" << f.name << "\"/>\n  <joint name=\"" << joint_name(f.joint_name, f.name)
+        << "\" type=\"fixed\">\n    <parent link=\""
         << parent_link << "\"/>\n    <child link=\"" << f.name << "\"/>\n    " << origin(X_PF) << "\n  </joint>\n";
   };
   for (int b = root + 1; b < model.num_bodies(); ++b) {
@@ -144,18 +167,19 @@ std::string export_urdf(const Model& model, const UrdfExportOptions& options) {
     out << "  </link>\n";
     const auto [parent_link, X_PJ] = hang(body_frame, body.parent, body.X_PJ);
     if (body.dof < 0) {  // welded to its parent
-      out << "  <joint name=\"" << body.name << "_joint\" type=\"fixed\">\n    <parent link=\"" << parent_link
+      out << "  <joint name=\"" << joint_name(body.joint_name, body.name) << "\" type=\"fixed\">\n    <parent link=\""
+          << parent_link
           << "\"/>\n    <child link=\"" << body.name << "\"/>\n    " << origin(X_PJ) << "\n  </joint>\n";
       continue;
     }
     const Dof& dof = model.dof(body.dof);
     const bool primary = primary_body[body.dof] == b;
     const char* type = dof.continuous ? "continuous" : to_string(body.joint_type);
-    out << "  <joint name=\"" << (primary ? dof.name : body.name + "_joint") << "\" type=\"" << type
+    out << "  <joint name=\"" << (primary ? dof.name : joint_name(body.joint_name, body.name)) << "\" type=\"" << type
         << "\">\n    <parent link=\"" << parent_link << "\"/>\n    <child link=\"" << body.name
         << "\"/>\n    " << origin(X_PJ) << "\n    <axis xyz=\"" << vec(body.axis) << "\"/>\n    <limit lower=\""
         << (dof.continuous ? 0.0 : dof.lower) << "\" upper=\"" << (dof.continuous ? 0.0 : dof.upper)
-        << "\" effort=\"0\" velocity=\"" << dof.max_speed << "\"/>\n";
+        << "\" effort=\"" << dof.max_effort << "\" velocity=\"" << dof.max_speed << "\"/>\n";
     if (!primary)
       out << "    <mimic joint=\"" << dof.name << "\" multiplier=\"" << body.multiplier << "\" offset=\""
           << body.offset << "\"/>\n";

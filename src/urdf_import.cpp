@@ -232,12 +232,12 @@ class UrdfChecker {
       check_limits(e, j, what);
     }
     // urdfdom rejects a <limit> without effort or velocity on any joint type (its message
-    // has no line); wbm reads neither on fixed joints and never reads effort.
+    // has no line); wbm reads neither on fixed joints and keeps effort only for the export.
     if (const TiXmlElement* limit = e->FirstChildElement("limit"))
       for (const char* attribute : {"effort", "velocity"})
         if (limit->Attribute(attribute) == nullptr)
           fail(limit->Row(), what + ": <limit> lacks " + attribute + "=\"...\" (the URDF format requires it" +
-                                 (std::string(attribute) == "effort" ? "; wbm does not use it)" : ")"));
+                                 (std::string(attribute) == "effort" ? "; wbm only exports it)" : ")"));
     // Two more that urdfdom rejects without a line (wbm reads neither element).
     if (const TiXmlElement* safety = e->FirstChildElement("safety_controller"))
       if (safety->Attribute("k_velocity") == nullptr)
@@ -433,8 +433,14 @@ class TreeBuilder {
     const urdf::Link& link = *urdf_.links_.at(link_name);
     if (mode != Mode::kDropped) {
       if (!parent.empty()) parent_of_[link_name] = parent;
-      if (!(specs_[body].body.name == link_name && X_BL.p.isZero() && X_BL.R.isIdentity()))
-        frames_.push_back({link_name, body, X_BL});
+      if (!(specs_[body].body.name == link_name && X_BL.p.isZero() && X_BL.R.isIdentity())) {
+        Frame frame{link_name, body, X_BL};
+        // Reached through a fixed joint or a locked leg's: that joint attaches the frame (a
+        // reversed movable joint is its body's, named after the dof).
+        if (from != nullptr && (mode != Mode::kNormal || urdf_.joints_.at(from->name)->type == urdf::Joint::FIXED))
+          frame.joint_name = from->name;
+        frames_.push_back(frame);
+      }
       merge_inertial(specs_[body].body.inertial, link_inertial(link, X_BL));
     }
     if (mode != Mode::kNormal && X_RL.p.z() < lowest_leg_z_) {
@@ -480,6 +486,7 @@ class TreeBuilder {
       }
       BodySpec spec;
       spec.joint = &joint;
+      spec.body.joint_name = joint.name;
       spec.body.parent = body;
       spec.body.joint_type = joint.type == urdf::Joint::PRISMATIC ? JointType::kPrismatic : JointType::kRevolute;
       const Vector3 axis = to_vector(joint.axis).normalized();
@@ -535,6 +542,7 @@ Dof dof_from_joint(const urdf::Joint& joint, const UrdfChecker& checker, const U
     dof.upper = default_range;
   }
   dof.max_speed = joint.limits && joint.limits->velocity > 0.0 ? joint.limits->velocity : default_speed;
+  dof.max_effort = joint.limits ? std::max(joint.limits->effort, 0.0) : 0.0;  // a negative effort means none
   return dof;
 }
 

@@ -919,8 +919,24 @@ TEST_P(ExportRoundTrip, SameFramePosesAfterExportAndImport) {
   const Model back = wbm::parse_urdf(wbm::export_urdf(original), options, entry.id + "_export.urdf");
   ASSERT_EQ(back.num_dofs(), original.num_dofs());
   // The same dofs in the same order: a q of the model is a q of the exported file.
-  for (int i = 0; i < original.num_dofs(); ++i)
+  for (int i = 0; i < original.num_dofs(); ++i) {
     ASSERT_EQ(back.dof(i).name, original.dof(i).name) << "dof " << i << " of the file exported and imported again";
+    EXPECT_EQ(back.dof(i).max_effort, original.dof(i).max_effort) << original.dof(i).name;
+  }
+  // The source's joint names: mimic joints' (Romeo's and NAO's fingers) and fixed joints'.
+  int named = 0;
+  for (const wbm::Body& body : original.bodies())
+    if (!body.joint_name.empty() && body.name != original.body(original.virtual_dofs().upper_body).name) {
+      EXPECT_EQ(back.body(back.frame(back.frame_index(body.name)).body).joint_name, body.joint_name) << "body " << body.name;
+      ++named;
+    }
+  for (const wbm::Frame& f : original.frames())
+    if (!f.joint_name.empty() && !original.is_body_frame(original.frame_index(f.name)) &&
+        f.body >= original.virtual_dofs().upper_body) {
+      EXPECT_EQ(back.frame(back.frame_index(f.name)).joint_name, f.joint_name) << "frame " << f.name;
+      ++named;
+    }
+  EXPECT_GE(named, original.num_dofs() - 9);
   EXPECT_NEAR(back.total_mass(), original.total_mass(), 1e-9);
   expect_same_frame_poses(original, back, 5, 20);
   // The links hang from the same links (Frame::parent; the body's origin where not given).
@@ -1011,6 +1027,15 @@ TEST(ModelBuilder, RejectsValuesThatWouldOverflow) {
        "frame 'tip': offset is not finite or reaches beyond 1e+06 m"},
       {[&](wbm::Dof&, wbm::Body&, wbm::Frame& f) { f.X_BF.p.y() = 2e6; },
        "frame 'tip': offset is not finite or reaches beyond 1e+06 m"},
+      {[&](wbm::Dof& d, wbm::Body&, wbm::Frame&) { d.max_effort = -1.0; },
+       "dof 'j': effort limit must be finite and >= 0 (0: not given), got -1"},
+      {[&](wbm::Dof& d, wbm::Body&, wbm::Frame&) { d.max_effort = nan; },
+       "dof 'j': effort limit must be finite and >= 0 (0: not given), got nan"},
+      // Joint names kept for the export must name one joint each (a URDF cannot hold two).
+      {[&](wbm::Dof&, wbm::Body&, wbm::Frame& f) { f.joint_name = "j"; },
+       "joint name 'j' is given to frame 'tip' and to dof 'j'"},
+      {[&](wbm::Dof&, wbm::Body& b, wbm::Frame& f) { b.joint_name = f.joint_name = "k"; },
+       "joint name 'k' is given to frame 'tip' and to body 'link'"},
   };
   // One dof driving one body with a frame; `change` edits them before the build.
   auto one_joint_model = [](const std::function<void(wbm::Dof&, wbm::Body&, wbm::Frame&)>& change) {
@@ -1034,6 +1059,11 @@ TEST(ModelBuilder, RejectsValuesThatWouldOverflow) {
     return builder.build();
   };
   EXPECT_NO_THROW(one_joint_model([](wbm::Dof&, wbm::Body&, wbm::Frame&) {}));  // valid without a change
+  EXPECT_NO_THROW(one_joint_model([](wbm::Dof& d, wbm::Body& b, wbm::Frame& f) {
+    d.max_effort = 30.0;
+    b.joint_name = "j";  // its dof's own joint
+    f.joint_name = "tip_mount";
+  }));
   for (const Change& change : changes) {
     try {
       one_joint_model(change.apply);

@@ -33,6 +33,9 @@ struct Dof {
   /// Work range [rad] or [m] used for the weighting matrix W (section IV.C) and to
   /// normalise the joint-limit criteria: upper - lower, 2*pi for continuous joints.
   double work_range = 0.0;
+  /// Effort limit [N m] or [N], >= 0: the URDF's, kept only to be exported again (wbm
+  /// controls velocities); 0 where none was given.
+  double max_effort = 0.0;
   /// Centre of the work range (joint-limit criteria); 0 for continuous joints.
   double center() const { return continuous ? 0.0 : 0.5 * (lower + upper); }
 };
@@ -62,6 +65,9 @@ struct Body {
   double multiplier = 1.0;  ///< Mimic coupling: joint value = multiplier * q[dof] + offset.
   double offset = 0.0;
   Inertial inertial;
+  /// Name of the joint that connects the body in the robot's description (the URDF's), kept
+  /// for the export; empty if none (the export then names the joint after the dof or body).
+  std::string joint_name{};
 };
 
 /// A named frame rigidly attached to a body: hand reference points, cameras, URDF links.
@@ -75,6 +81,9 @@ struct Frame {
   /// the same body or, for a body's own frame, one on the parent body. -1 if not given:
   /// then the frame hangs from its body's origin, a body's own frame from the parent body's.
   int parent = -1;
+  /// Name of the fixed joint that attaches the frame in the robot's description (a welded
+  /// URDF link's joint, or a locked leg's), kept for the export; empty if none.
+  std::string joint_name{};
 };
 
 /// Indices of the paper's virtual dofs in q (section II), -1 where a model has none.
