@@ -76,6 +76,7 @@ WholeBodySolver::WholeBodySolver(const Model& model, int max_rows, const SolverP
   out_.qdot.setZero(n);
   out_.qdot_task.setZero(n);
   out_.qdot_null.setZero(n);
+  out_.row_damping.setZero(m);
   braking_time_per_rate_.resize(n);
   set_parameters(parameters);
 }
@@ -210,15 +211,34 @@ void WholeBodySolver::solve_in_place(int m, double* const (&x)[K]) const {
 int WholeBodySolver::start_inverse_iteration(int m) {
   // One step per cycle continues the iteration of the previous cycles (the configuration
   // changes little between cycles); three after a change of the row count.
+  // @pre a row that is not isolated (whose eigenvalue the iteration is for).
   auto v = v_.head(m);
+  const internal::UnitRowElimination& elimination = *elimination_;
+  // Isolated rows are blocks of A of their own, with their eigenvalues known: the iterate
+  // lives on the other rows (A keeps it there).
+  auto drop_isolated_rows = [&] {
+    for (int k = 0; k < elimination.num_eliminated(); ++k)
+      if (elimination.is_isolated(k)) v[elimination.eliminated_row(k)] = 0.0;
+  };
   // v is the previous cycle's normalised iterate, unless the row count changed or it broke.
+  int steps = 1;
   if (m != previous_rows_ || !internal::all_finite(v.data(), m) || !(v.squaredNorm() > 0.0)) {
     for (int i = 0; i < m; ++i) v[i] = 1.0 + 0.37 * i;
-    v.normalize();
     previous_rows_ = m;
-    return 3;
+    steps = 3;
+  } else if (elimination.num_isolated() == 0) {
+    return 1;  // unit already
   }
-  return 1;
+  if (elimination.num_isolated() > 0) {
+    drop_isolated_rows();
+    if (!(v.squaredNorm() > 0.0)) {  // it lay on rows isolated now: start again on the others
+      for (int i = 0; i < m; ++i) v[i] = 1.0 + 0.37 * i;
+      drop_isolated_rows();
+      steps = 3;
+    }
+  }
+  v.normalize();
+  return steps;
 }
 
 double WholeBodySolver::finish_inverse_iteration_step(int m, double& cosine) {
@@ -363,7 +383,10 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
     g_[i] = w_[i] * gradient[i];
     if (free_[i]) free_index_[nf++] = i;
   }
-  if (nf == 0) return kAllDofsFrozen;
+  if (nf == 0) {
+    out_.row_damping.head(m).setZero();
+    return kAllDofsFrozen;
+  }
   if (m > nf) flags |= kOverdetermined;
   out_.damping = 0.0;
   if (m == 0) {
@@ -387,6 +410,7 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
   const int np = prepare_rows(J, gradient, nf, nr, dofs);
   const int p = elimination.num_eliminated();
   const int mk = elimination.num_kept();
+  const int isolated = elimination.num_isolated();
   // A = H^T H (lower triangle).
   gram_(H, H, ld, mk, np, extent_.data(), A_.data(), A_.outerStride());
   // u = J W^-1 dH/dq = H^T (W^-1/2 dH/dq), two rows at a time.
@@ -401,9 +425,14 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
   // The smallest eigenvalue of the full A (sigma_min^2) by inverse iteration (with the
   // eliminated rows: through the Schur complement); its last step shares the pass over the
   // factor with the two solves, which are repeated only when damping.
+  // Isolated joint rows (on a dof no other row touches) are blocks of A of their own, with
+  // the eigenvalue h_k^2, and are damped by it alone (below); lambda_min is that of the other
+  // rows, infinite if there are none.
   const double eps2 = parameters_.singular_threshold * parameters_.singular_threshold;
   double lambda_min = 0.0;
-  if (factorize(mk)) {
+  if (isolated == m) {
+    lambda_min = std::numeric_limits<double>::infinity();
+  } else if (factorize(mk)) {
     const int steps = start_inverse_iteration(m);
     double cosine = 1.0;  // between the iterate before and after a step
     for (int k = 1; k < steps; ++k) inverse_iteration_step(m, p, cosine);
@@ -441,8 +470,7 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
     // singular A (the iterate, not finite, restarts next cycle).
     if (!(lambda_min >= 0.0)) lambda_min = 0.0;
   }
-  out_.min_singular_value = std::sqrt(lambda_min);
-  double mu2 = 0.0;  // damping lambda^2
+  double mu2 = 0.0;  // damping lambda^2 of the rows that are not isolated
   if (lambda_min < eps2) {
     flags |= kDamped;
     const double max2 = parameters_.max_damping * parameters_.max_damping;
@@ -454,7 +482,6 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
       mu2 = effective_damping_factor_ * max2;
       factorize(mk);
     }
-    out_.damping = std::sqrt(mu2);
     if (p > 0)
       elimination.reduce(xdot.data(), y_.data(), mu2);
     else
@@ -464,6 +491,25 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
     double* const rhs[2] = {y_.data(), u_.data()};
     solve_in_place<2>(mk, rhs);
   }
+  out_.row_damping.head(m).setConstant(std::sqrt(mu2));
+  // An isolated row's damping from its own singular value |h_k|, by the same rule (raised
+  // alike: a row of a custom element on one dof can pass through J_ik = 0).
+  const double raised_max2 = effective_damping_factor_ * parameters_.max_damping * parameters_.max_damping;
+  auto isolated_damping = [&](int k) {
+    const double h2 = elimination.entry(k) * elimination.entry(k);
+    return h2 < eps2 ? raised_max2 * (1.0 - h2 / eps2) : 0.0;
+  };
+  double min_eigenvalue = lambda_min, max_mu2 = mu2;
+  for (int k = 0; k < p && isolated > 0; ++k) {
+    if (!elimination.is_isolated(k)) continue;
+    const double mu2_k = isolated_damping(k);
+    min_eigenvalue = std::min(min_eigenvalue, elimination.entry(k) * elimination.entry(k));
+    max_mu2 = std::max(max_mu2, mu2_k);
+    out_.row_damping[elimination.eliminated_row(k)] = std::sqrt(mu2_k);
+    if (mu2_k > 0.0) flags |= kDamped;
+  }
+  out_.min_singular_value = std::sqrt(min_eigenvalue);
+  out_.damping = std::sqrt(max_mu2);
   // W^-1 J^T y = W^-1/2 H y and W^-1 J^T u = W^-1/2 H u over the free dofs.
   const double* task = task_free_.data();
   const double* null = null_free_.data();
@@ -477,8 +523,9 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
   }
   for (int e = 0; e < p; ++e) {
     const int k = elimination.eliminated_dof(e);
-    out_.qdot_task[k] = range_[k] * elimination.task_entry(e, y_.data(), xdot.data(), mu2);
-    out_.qdot_null[k] = range_[k] * elimination.null_entry(e, u_.data(), range_[k] * gradient[k], mu2);
+    const double mu2_e = isolated > 0 && elimination.is_isolated(e) ? isolated_damping(e) : mu2;
+    out_.qdot_task[k] = range_[k] * elimination.task_entry(e, y_.data(), xdot.data(), mu2_e);
+    out_.qdot_null[k] = range_[k] * elimination.null_entry(e, u_.data(), range_[k] * gradient[k], mu2_e);
   }
   out_.qdot_null *= -parameters_.nullspace_gain;
   return flags;
@@ -503,6 +550,7 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
       !internal::all_finite(gradient.data(), n) ||
       (q != nullptr && q->size() != n)) {
     status.flags |= kInvalidInput;
+    out_.row_damping.setZero();
     return status;
   }
   // A raised damping holds as long as the command is as fast as when it was raised: the

@@ -7,7 +7,8 @@
 namespace wbm::internal {
 
 UnitRowElimination::UnitRowElimination(int num_dofs, int max_rows)
-    : kept_rows_(max_rows),
+    : isolated_(max_rows, 0),
+      kept_rows_(max_rows),
       row_(max_rows),
       dof_(max_rows),
       row_of_dof_(num_dofs, -1),
@@ -100,10 +101,20 @@ void UnitRowElimination::gather_couplings(const Eigen::Ref<const Eigen::MatrixXd
     const double r = range[dof_[k]];
     const double* column = J.data() + dof_[k] * J.outerStride();
     double* b = &b_(k, 0);
+    std::uint64_t bits = 0;  // of all entries: only the sign bit set if every entry is +-0
     if (kept_leading_)
-      for (int j = 0; j < m_kept_; ++j) b[j] = r * column[j];
+      for (int j = 0; j < m_kept_; ++j) {
+        b[j] = r * column[j];
+        bits |= std::bit_cast<std::uint64_t>(b[j]);
+      }
     else
-      for (int j = 0; j < m_kept_; ++j) b[j] = r * column[kept_rows_[j]];
+      for (int j = 0; j < m_kept_; ++j) {
+        b[j] = r * column[kept_rows_[j]];
+        bits |= std::bit_cast<std::uint64_t>(b[j]);
+      }
+    const bool isolated = (bits << 1) == 0;
+    isolated_[k] = isolated;
+    num_isolated_ += isolated;
   }
 }
 

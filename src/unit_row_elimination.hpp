@@ -25,6 +25,11 @@
 /// A row is eliminated only if its dof is not taken by an earlier eliminated row and
 /// h_k^2 > 1e-200 (so that 1 / dd_k stays finite); otherwise it stays a kept row.
 ///
+/// An eliminated row with b_k = 0 (no other row has an entry at its dof: a gripper's
+/// stroke, a joint task outside every other task's chain) is isolated: A is block diagonal
+/// with h_k^2 as one block. The solver damps such a row by its own singular value |h_k|
+/// alone (mu2 of the functions below is then that row's), and the other rows by theirs.
+///
 /// Finding the rows scans every row of H for its non-zero entries. Between cycles the rows
 /// rarely change, so the solver first tries the previous cycle's rows (reuse()), builds H
 /// over the remaining dofs and checks that the result is exactly what find() would give
@@ -65,8 +70,16 @@ class UnitRowElimination {
   bool kept_rows_stay(const Eigen::Ref<const Eigen::MatrixXd>& J, const int* extent, const char* single) const;
   /// The couplings b_k from J, once the rows are settled.
   void find_couplings(const Eigen::Ref<const Eigen::MatrixXd>& J, const double* range) {
+    num_isolated_ = 0;
     if (p_ > 0) gather_couplings(J, range);
   }
+  /// Whether eliminated row k is isolated (b_k = 0, after find_couplings()).
+  bool is_isolated(int k) const { return isolated_[k] != 0; }
+  /// How many eliminated rows are isolated.
+  int num_isolated() const { return num_isolated_; }
+  /// The original row of eliminated row k and its single scaled entry h_k.
+  int eliminated_row(int k) const { return row_[k]; }
+  double entry(int k) const { return h_[k]; }
 
   int num_eliminated() const { return p_; }
   int num_kept() const { return m_kept_; }
@@ -104,7 +117,8 @@ class UnitRowElimination {
     return mu2 == 0.0 ? inverse_h_[k] : h_[k] / (h_[k] * h_[k] + mu2);
   }
 
-  int m_ = -1, p_ = 0, m_kept_ = 0;
+  int m_ = -1, p_ = 0, m_kept_ = 0, num_isolated_ = 0;
+  std::vector<char> isolated_;  // per eliminated row: b_k = 0
   bool kept_leading_ = true;
   std::vector<int> kept_rows_, row_, dof_;  // kept rows; row and dof of each eliminated row
   std::vector<int> row_of_dof_;             // per dof: its eliminated row, or -1

@@ -2,7 +2,8 @@
 // src/unit_row_elimination.hpp): seeded random Jacobians that mix dense rows, sparse rows
 // and unit rows (scaled, on frozen dofs, two on one dof, placed anywhere), checked against
 // the plain formulas of eq. (5)-(7) with Eigen, the smallest singular value against an SVD,
-// and a solver that reuses the previous cycle's rows against a fresh one.
+// and a solver that reuses the previous cycle's rows against a fresh one. Isolated unit rows
+// (on a dof no other row touches) are damped by their own singular value alone.
 // WBM_PROPERTY_CASES=<n> runs n cases per property instead of 10^4.
 #include <limits>
 #include <random>
@@ -38,7 +39,8 @@ struct Problem {
 };
 
 /// m rows over n dofs: dense rows, rows with zeros, and unit rows (value 1 or a random
-/// scale) on random dofs, some of them frozen or shared by two unit rows.
+/// scale, one in twenty below the singular threshold) on random dofs, some of them frozen
+/// or shared by two unit rows.
 Problem random_problem(int n, int m, std::mt19937_64& rng) {
   std::normal_distribution<double> normal;
   std::uniform_int_distribution<int> dof(0, n - 1);
@@ -52,6 +54,7 @@ Problem random_problem(int n, int m, std::mt19937_64& rng) {
     if (kind < 0.4) {  // unit row
       const int k = dof(rng);
       p.J(i, k) = u(rng) < 0.5 ? 1.0 : (u(rng) < 0.5 ? -1.0 : 1.0) * (0.2 + 3.0 * u(rng));
+      if (u(rng) < 0.05) p.J(i, k) *= 0.005;  // r_k |J_ik| below 0.04 on every model's dofs
     } else if (kind < 0.5) {  // two entries, one of them possibly another unit row's dof
       p.J(i, dof(rng)) = normal(rng);
       p.J(i, dof(rng)) = normal(rng);
@@ -67,6 +70,17 @@ Problem random_problem(int n, int m, std::mt19937_64& rng) {
   return p;
 }
 
+/// The free dof of row i's only non-zero entry among the free dofs, -1 if it has more or none.
+int unit_row_dof(const Problem& p, int i) {
+  int count = 0, k = -1;
+  for (int j = 0; j < static_cast<int>(p.J.cols()); ++j)
+    if (p.free[j] && p.J(i, j) != 0.0) {
+      ++count;
+      k = j;
+    }
+  return count == 1 ? k : -1;
+}
+
 SolverParameters raw_parameters() {
   SolverParameters s;
   s.limit_speeds = false;
@@ -74,15 +88,16 @@ SolverParameters raw_parameters() {
   return s;
 }
 
-/// Task and null-space parts by the plain formulas with the damping the solver reported:
-/// A = J W^-1 J^T + lambda^2 E, q_task = W^-1 J^T A^-1 x_dot,
+/// Task and null-space parts by the plain formulas with the damping the solver reported for
+/// each row: A = J W^-1 J^T + diag(lambda_i^2), q_task = W^-1 J^T A^-1 x_dot,
 /// q_null = -alpha (W^-1 g - W^-1 J^T A^-1 J W^-1 g), W^-1 zero for frozen dofs.
-void reference(const Model& model, const Problem& p, double damping, double alpha, VectorXd& task, VectorXd& null) {
+void reference(const Model& model, const Problem& p, const VectorXd& damping, double alpha, VectorXd& task,
+               VectorXd& null) {
   const int n = model.num_dofs();
   VectorXd w(n);
   for (int i = 0; i < n; ++i) w[i] = p.free[i] ? model.dof(i).work_range * model.dof(i).work_range : 0.0;
   const MatrixXd JW = p.J * w.asDiagonal();
-  const MatrixXd A = JW * p.J.transpose() + damping * damping * MatrixXd::Identity(p.J.rows(), p.J.rows());
+  const MatrixXd A = JW * p.J.transpose() + MatrixXd(damping.cwiseAbs2().asDiagonal());
   const Eigen::LDLT<MatrixXd> ldlt(A);
   task = JW.transpose() * ldlt.solve(p.xdot);
   const VectorXd g = w.cwiseProduct(p.gradient);
@@ -97,7 +112,7 @@ void check_against_reference(const Model& model, unsigned seed) {
   // Mostly fewer rows than dofs; one case in ten up to more rows than dofs.
   std::uniform_int_distribution<int> rows(1, 2 * n / 3), many_rows(2 * n / 3, max_rows);
   std::bernoulli_distribution many(0.1);
-  int undamped = 0, eliminated_dofs_checked = 0;
+  int undamped = 0, eliminated_dofs_checked = 0, isolated_damped = 0, exact_while_others_damped = 0;
   for (int c = 0; c < property_cases(); ++c) {
     const Problem p = random_problem(n, many(rng) ? many_rows(rng) : rows(rng), rng);
     solver.reset();
@@ -107,25 +122,52 @@ void check_against_reference(const Model& model, unsigned seed) {
     ASSERT_TRUE(st.ok()) << p.describe();
     const SolverOutput& out = solver.output();
     ASSERT_TRUE(out.qdot.allFinite()) << p.describe();
+    // The damping of each row: an isolated unit row's from its own singular value r_k |J_ik|,
+    // every other row the same.
+    const int m = static_cast<int>(p.J.rows());
+    const VectorXd damping = out.row_damping.head(m);
+    const double eps = solver.parameters().singular_threshold, max_damping = solver.parameters().max_damping;
+    std::vector<int> isolated_dof(m, -1);
+    double others = -1.0;
+    for (int i = 0; i < m; ++i) {
+      const int k = unit_row_dof(p, i);
+      bool alone = k >= 0;
+      for (int j = 0; j < m && alone; ++j) alone = j == i || p.J(j, k) == 0.0;
+      if (!alone) {
+        if (others < 0.0) others = damping[i];
+        ASSERT_EQ(damping[i], others) << "row " << i << "\n" << p.describe();
+        continue;
+      }
+      isolated_dof[i] = k;
+      const double h = model.dof(k).work_range * p.J(i, k);
+      const double expected = h * h < eps * eps ? max_damping * std::sqrt(1.0 - h * h / (eps * eps)) : 0.0;
+      ASSERT_NEAR(damping[i], expected, 1e-15) << "isolated row " << i << "\n" << p.describe();
+      isolated_damped += expected > 0.0;
+    }
+    ASSERT_EQ(out.damping, damping.maxCoeff()) << p.describe();
     VectorXd task, null;
-    reference(model, p, out.damping, solver.parameters().nullspace_gain, task, null);
+    reference(model, p, damping, solver.parameters().nullspace_gain, task, null);
     const double scale = 1.0 + task.norm() + null.norm();
     ASSERT_LT((out.qdot_task - task).norm(), 1e-8 * scale) << "damping " << out.damping << "\n" << p.describe();
     ASSERT_LT((out.qdot_null - null).norm(), 1e-8 * scale) << "damping " << out.damping << "\n" << p.describe();
     for (int i = 0; i < n; ++i)
       if (!p.free[i]) { ASSERT_EQ(out.qdot[i], 0.0) << "frozen dof " << i << "\n" << p.describe(); }
+    // An isolated row not damped itself is met exactly, also while the others are damped.
+    for (int i = 0; i < m; ++i) {
+      const int k = isolated_dof[i];
+      if (k < 0 || damping[i] > 0.0) continue;
+      ASSERT_NEAR(out.qdot_task[k], p.xdot[i] / p.J(i, k), 1e-12 * (1.0 + std::abs(p.xdot[i] / p.J(i, k))))
+          << "isolated row " << i << "\n" << p.describe();
+      ASSERT_EQ(out.qdot_null[k], 0.0) << "isolated row " << i << "\n" << p.describe();
+      exact_while_others_damped += others > 0.0;
+    }
     if (st.has(kDamped)) continue;
     ++undamped;
     ASSERT_LT((p.J * out.qdot_task - p.xdot).norm(), 1e-8 * (1.0 + p.xdot.norm()) * scale) << p.describe();
     // Undamped, a dof with a unit row takes exactly its commanded rate and no null-space motion.
     for (int i = 0; i < p.J.rows(); ++i) {
-      int count = 0, k = -1;
-      for (int j = 0; j < n; ++j)
-        if (p.free[j] && p.J(i, j) != 0.0) {
-          ++count;
-          k = j;
-        }
-      if (count != 1) continue;
+      const int k = unit_row_dof(p, i);
+      if (k < 0) continue;
       ASSERT_NEAR(out.qdot_task[k], p.xdot[i] / p.J(i, k), 1e-12 * (1.0 + std::abs(p.xdot[i] / p.J(i, k))))
           << "row " << i << "\n" << p.describe();
       ASSERT_EQ(out.qdot_null[k], 0.0) << "row " << i << "\n" << p.describe();
@@ -135,6 +177,8 @@ void check_against_reference(const Model& model, unsigned seed) {
   // Most cases must have reached the undamped checks, with unit rows in them.
   EXPECT_GT(undamped, property_cases() / 3);
   EXPECT_GT(eliminated_dofs_checked, property_cases() / 2);
+  EXPECT_GT(isolated_damped, property_cases() / 100);
+  EXPECT_GT(exact_while_others_damped, property_cases() / 100);
 }
 
 TEST(UnitRows, SolutionMatchesThePlainFormulasPaperModel) { check_against_reference(make_paper_model(), 1205); }

@@ -66,7 +66,10 @@ struct SolverOutput {
   Eigen::VectorXd qdot_task;  ///< J# x_dot part (after scaling).
   Eigen::VectorXd qdot_null;  ///< -alpha N W^-1 dH/dq part (after scaling).
   double min_singular_value = 0.0;  ///< Estimate of sigma_min of J W^-1/2.
-  double damping = 0.0;             ///< lambda used.
+  double damping = 0.0;             ///< The largest lambda used (of row_damping).
+  /// lambda of each active row (the first m entries; max_rows in all): the same for every
+  /// row but isolated joint rows, which are damped by their own singular value alone.
+  Eigen::VectorXd row_damping;
   double nullspace_scale = 1.0;     ///< Factor applied to the null-space part.
   double task_scale = 1.0;          ///< Factor applied to the task part.
   bool frozen_set_changed = false;  ///< The dofs frozen at their limits differ from the last solve's.
@@ -92,6 +95,10 @@ struct SolverOutput {
 ///
 /// Rows with one non-zero entry among the free dofs (joint rows) are solved exactly by
 /// block elimination instead of inside A (same result up to rounding; docs/solver.md).
+/// A joint row on a dof that no other active row has an entry at (a gripper's stroke, a
+/// joint task outside every other task's chain) is a block of A of its own: it is damped
+/// by its own singular value r_k |J_ik| alone, the other rows by theirs (row_damping), so
+/// that a singular arm does not damp a gripper, nor a gripper of short stroke the arms.
 class WholeBodySolver {
  public:
   /// @param max_rows the largest number of task rows that will be passed.
