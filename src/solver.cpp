@@ -8,6 +8,7 @@
 #include "braking.hpp"
 #include "dot_kernels.hpp"
 #include "rate_checks.hpp"
+#include "row_blocks.hpp"
 #include "unit_row_elimination.hpp"
 
 namespace wbm {
@@ -34,7 +35,8 @@ WholeBodySolver::WholeBodySolver(const Model& model, int max_rows, const SolverP
     : model_(model), parameters_(parameters), max_rows_(max_rows), gram_(internal::select_weighted_gram()),
       transpose_products_(internal::select_transpose_products()),
       three_solves_(internal::select_three_solves()),
-      elimination_(std::make_unique<internal::UnitRowElimination>(model.num_dofs(), std::max(max_rows, 1))) {
+      elimination_(std::make_unique<internal::UnitRowElimination>(model.num_dofs(), std::max(max_rows, 1))),
+      blocks_(std::make_unique<internal::RowBlocks>(std::max(max_rows, 1))) {
   check(parameters);
   if (max_rows < 0) throw ConfigError("solver: max_rows must be >= 0");
   const int n = model.num_dofs();
@@ -77,6 +79,11 @@ WholeBodySolver::WholeBodySolver(const Model& model, int max_rows, const SolverP
   out_.qdot_task.setZero(n);
   out_.qdot_null.setZero(n);
   out_.row_damping.setZero(m);
+  for (Eigen::VectorXd* v : {&block_v_, &block_w_, &block_z_, &block_lambda_, &block_mu2_, &block_sum1_,
+                             &block_sum2_, &block_change_, &block_old_, &elim_mu2_})
+    v->setZero(m);
+  row_block_.assign(m, -1);
+  dof_block_.assign(n, -1);
   braking_time_per_rate_.resize(n);
   set_parameters(parameters);
 }
@@ -275,6 +282,197 @@ double WholeBodySolver::inverse_iteration_step(int m, int p, double& cosine) {
   return finish_inverse_iteration_step(m, cosine);
 }
 
+void WholeBodySolver::clear_row_damping() {
+  if (row_damping_zero_) return;
+  out_.row_damping.setZero();
+  row_damping_zero_ = true;
+}
+
+bool WholeBodySolver::block_iteration_step(int m, int mk, int blocks, double shift) {
+  // w = (A + shift)^-1 v, through the eliminated rows' Schur complement as in
+  // inverse_iteration_step(); then each block's part of v and w on its own.
+  const internal::UnitRowElimination& elimination = *elimination_;
+  const int* label = row_block_.data();
+  double* __restrict__ v = block_v_.data();
+  double* __restrict__ w = block_w_.data();
+  if (elimination.num_eliminated() > 0) {
+    elimination.reduce(v, block_z_.data(), shift);
+    double* const rhs[1] = {block_z_.data()};
+    solve_in_place<1>(mk, rhs);
+    elimination.expand(v, block_z_.data(), w, shift);
+  } else {
+    std::copy_n(v, m, w);
+    double* const rhs[1] = {w};
+    solve_in_place<1>(mk, rhs);
+  }
+  double* w2 = block_sum1_.data();
+  double* vw = block_sum2_.data();
+  std::fill_n(w2, blocks, 0.0);
+  std::fill_n(vw, blocks, 0.0);
+  for (int i = 0; i < m; ++i) {
+    if (label[i] < 0) continue;
+    w2[label[i]] += w[i] * w[i];
+    vw[label[i]] += v[i] * w[i];
+  }
+  const double eps2 = parameters_.singular_threshold * parameters_.singular_threshold;
+  bool turning = false;
+  for (int b = 0; b < blocks; ++b) {
+    block_lambda_[b] = vw[b] / w2[b] - shift;
+    const double cosine = vw[b] / std::sqrt(w2[b]);
+    turning = turning || (block_lambda_[b] < 4.0 * eps2 && 1.0 - cosine * cosine > kSettledIterate);
+    w2[b] = 1.0 / std::sqrt(w2[b]);  // the block's scale
+  }
+  for (int i = 0; i < m; ++i) v[i] = label[i] < 0 ? 0.0 : w[i] * w2[label[i]];
+  return turning;
+}
+
+double WholeBodySolver::resolve_blocks(int m, int mk, int blocks, const Eigen::Ref<const Eigen::VectorXd>& xdot,
+                                       const Eigen::Ref<const Eigen::VectorXd>& gradient, double& max_mu2,
+                                       std::uint32_t& flags) {
+  // As the one-block path in resolve(), block by block: the full A is block diagonal, so
+  // A^-1 v is each block's inverse applied to its part of v, and one solve serves all.
+  // Rare (robots whose tasks share no free dof), so written plainly: no fused kernel.
+  const internal::RowBlocks& rows = *blocks_;
+  internal::UnitRowElimination& elimination = *elimination_;
+  const int p = elimination.num_eliminated();
+  const double eps2 = parameters_.singular_threshold * parameters_.singular_threshold;
+  double* A = A_.data();
+  const Eigen::Index lda = A_.outerStride();
+  // Each row's block: the kept rows' from `rows`, an eliminated row's that of the kept rows
+  // it couples to, -1 for an isolated one (damped alone, below in resolve()).
+  int* label = row_block_.data();
+  for (int j = 0; j < mk; ++j) label[elimination.kept_row(j)] = rows.block(j);
+  for (int k = 0; k < p; ++k) {
+    int first = 0;
+    const double* b = elimination.coupling(k);
+    while (first + 1 < mk && b[first] == 0.0) ++first;
+    label[elimination.eliminated_row(k)] = elimination.is_isolated(k) ? -1 : rows.block(first);
+  }
+  // A singular block (more rows than its dofs) fails the factorisation; the blocks are then
+  // estimated on A + shift E (the same eigenvectors, eigenvalues shifted), the shift small
+  // (so that the iteration still separates a zero eigenvalue from the next) but far above
+  // the factorisation's pivot tolerance (1e-13 of A's largest diagonal entry).
+  double shift = 0.0;
+  bool factored = factorize(mk);
+  if (!factored) {
+    double largest = eps2;
+    for (int j = 0; j < mk; ++j) largest = std::max(largest, A[j + j * lda]);
+    shift = 1e-9 * largest;
+    elimination.add_damping(A, lda, shift, 0.0);
+    factored = factorize(mk);
+  }
+  double* lambda = block_lambda_.data();
+  double* mu2 = block_mu2_.data();
+  std::fill_n(lambda, blocks, 0.0);
+  double* task_rhs = block_z_.data();
+  if (factored) {
+    double* v = block_v_.data();
+    int steps = 1;
+    if (!rows.unchanged() || m != block_rows_ || !internal::all_finite(v, m)) {
+      double* norm2 = block_sum1_.data();
+      std::fill_n(norm2, blocks, 0.0);
+      for (int i = 0; i < m; ++i) {
+        v[i] = label[i] < 0 ? 0.0 : 1.0 + 0.37 * i;
+        if (label[i] >= 0) norm2[label[i]] += v[i] * v[i];
+      }
+      for (int i = 0; i < m; ++i)
+        if (label[i] >= 0) v[i] /= std::sqrt(norm2[label[i]]);
+      block_rows_ = m;
+      steps = 3;
+    }
+    bool turning = false;
+    for (int k = 0; k < steps; ++k) turning = block_iteration_step(m, mk, blocks, shift);
+    if (turning) block_iteration_step(m, mk, blocks, shift);
+    // The task and null-space solves (of A + shift E), and each block's bound from the task
+    // solve (see resolve()): lambda_b + shift <= |b_b| / |y_b| over its kept rows.
+    if (p > 0)
+      elimination.reduce(xdot.data(), task_rhs, shift);
+    else
+      std::copy_n(xdot.data(), m, task_rhs);
+    std::copy_n(task_rhs, mk, y_.data());
+    u_.head(mk) = u_rhs_.head(mk);
+    elimination.add_damped_gradient(gradient.data(), range_.data(), u_.data(), shift);
+    double* const rhs[2] = {y_.data(), u_.data()};
+    solve_in_place<2>(mk, rhs);
+    double* rhs2 = block_sum1_.data();
+    double* y2 = block_sum2_.data();
+    std::fill_n(rhs2, blocks, 0.0);
+    std::fill_n(y2, blocks, 0.0);
+    for (int j = 0; j < mk; ++j) {
+      rhs2[rows.block(j)] += task_rhs[j] * task_rhs[j];
+      y2[rows.block(j)] += y_[j] * y_[j];
+    }
+    for (int b = 0; b < blocks; ++b) {
+      const double bound = std::sqrt(rhs2[b] / y2[b]) - shift;
+      if (bound < lambda[b]) lambda[b] = bound;
+      if (!(lambda[b] >= 0.0)) lambda[b] = 0.0;  // no estimate (overflow): as singular
+    }
+  }
+  const double max2 = effective_damping_factor_ * parameters_.max_damping * parameters_.max_damping;
+  double lambda_min = std::numeric_limits<double>::infinity();
+  max_mu2 = 0.0;
+  for (int b = 0; b < blocks; ++b) {
+    lambda_min = std::min(lambda_min, lambda[b]);
+    mu2[b] = lambda[b] < eps2 ? max2 * (1.0 - std::max(lambda[b], 0.0) / eps2) : 0.0;
+    max_mu2 = std::max(max_mu2, mu2[b]);
+  }
+  // A from the shift to each block's damping: the kept rows' diagonal, the eliminated
+  // rows' couplings (an isolated row's has none: its own damping is applied in resolve()).
+  double* change = block_change_.data();
+  double* elim_old = block_old_.data();
+  double* elim_mu2 = elim_mu2_.data();
+  auto set_damping = [&] {
+    for (int j = 0; j < mk; ++j) change[j] = mu2[rows.block(j)] - change[j];
+    for (int k = 0; k < p; ++k) {
+      const int b = label[elimination.eliminated_row(k)];
+      elim_old[k] = elim_mu2[k];
+      elim_mu2[k] = b < 0 ? 0.0 : mu2[b];
+    }
+    elimination.add_damping(A, lda, change, elim_mu2, elim_old);
+    for (int j = 0; j < mk; ++j) change[j] = mu2[rows.block(j)];  // what the diagonal holds now
+  };
+  if (max_mu2 > 0.0 || shift > 0.0) {
+    if (max_mu2 > 0.0) flags |= kDamped;
+    std::fill_n(change, mk, shift);
+    std::fill_n(elim_mu2, p, shift);
+    set_damping();
+    if (!factorize(mk)) {  // as in resolve(): the largest damping for every block
+      std::fill_n(mu2, blocks, max2);
+      max_mu2 = max2;
+      set_damping();
+      factorize(mk);
+    }
+    if (p > 0)
+      elimination.reduce(xdot.data(), y_.data(), elim_mu2);
+    else
+      std::copy_n(xdot.data(), m, y_.data());
+    u_.head(mk) = u_rhs_.head(mk);
+    elimination.add_damped_gradient(gradient.data(), range_.data(), u_.data(), elim_mu2);
+    double* const rhs[2] = {y_.data(), u_.data()};
+    solve_in_place<2>(mk, rhs);
+  } else {
+    std::fill_n(elim_mu2, p, 0.0);
+  }
+  return lambda_min;
+}
+
+double WholeBodySolver::scale_task_blocks() {
+  // Each block's task part scaled to the speed limits on its own (blocks share no dof, so
+  // each keeps its direction), not every block by the most limited one's factor.
+  const Eigen::VectorXd& vmax = model_.max_speeds();
+  double* scale = block_sum1_.data();
+  std::fill_n(scale, task_blocks_, 1.0);
+  for (int i = 0; i < model_.num_dofs(); ++i) {
+    const double v = std::abs(out_.qdot_task[i]);
+    if (dof_block_[i] >= 0 && v > vmax[i]) scale[dof_block_[i]] = std::min(scale[dof_block_[i]], vmax[i] / v);
+  }
+  double smallest = 1.0;
+  for (int i = 0; i < model_.num_dofs(); ++i)
+    if (dof_block_[i] >= 0) out_.qdot_task[i] *= scale[dof_block_[i]];
+  for (int b = 0; b < task_blocks_; ++b) smallest = std::min(smallest, scale[b]);
+  return smallest;
+}
+
 int WholeBodySolver::scale_rows(const Eigen::Ref<const Eigen::MatrixXd>& J,
                                 const Eigen::Ref<const Eigen::VectorXd>& gradient, const int* dofs, int nf,
                                 int columns) {
@@ -384,7 +582,7 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
     if (free_[i]) free_index_[nf++] = i;
   }
   if (nf == 0) {
-    out_.row_damping.head(m).setZero();
+    clear_row_damping();
     return kAllDofsFrozen;
   }
   if (m > nf) flags |= kOverdetermined;
@@ -413,6 +611,9 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
   const int isolated = elimination.num_isolated();
   // A = H^T H (lower triangle).
   gram_(H, H, ld, mk, np, extent_.data(), A_.data(), A_.outerStride());
+  // Independent blocks of the kept rows (no free dof in common: A block diagonal), each
+  // damped by its own sigma_min; only where no eliminated row couples kept rows.
+  const int blocks = mk > 1 ? blocks_->find(A_.data(), A_.outerStride(), mk, elimination) : 1;
   // u = J W^-1 dH/dq = H^T (W^-1/2 dH/dq), two rows at a time.
   for (int i = 0; i < mk; i += 2) {
     const int i1 = std::min(i + 1, mk - 1);
@@ -430,8 +631,11 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
   // rows, infinite if there are none.
   const double eps2 = parameters_.singular_threshold * parameters_.singular_threshold;
   double lambda_min = 0.0;
+  double mu2 = 0.0;  // damping lambda^2 of the rows that are not isolated (the largest of the blocks')
   if (isolated == m) {
     lambda_min = std::numeric_limits<double>::infinity();
+  } else if (blocks > 1) {
+    lambda_min = resolve_blocks(m, mk, blocks, xdot, gradient, mu2, flags);
   } else if (factorize(mk)) {
     const int steps = start_inverse_iteration(m);
     double cosine = 1.0;  // between the iterate before and after a step
@@ -470,8 +674,7 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
     // singular A (the iterate, not finite, restarts next cycle).
     if (!(lambda_min >= 0.0)) lambda_min = 0.0;
   }
-  double mu2 = 0.0;  // damping lambda^2 of the rows that are not isolated
-  if (lambda_min < eps2) {
+  if (blocks == 1 && lambda_min < eps2) {
     flags |= kDamped;
     const double max2 = parameters_.max_damping * parameters_.max_damping;
     // lambda^2 from sigma_min, times the factor adapt_damping() raised after an overshoot.
@@ -491,7 +694,33 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
     double* const rhs[2] = {y_.data(), u_.data()};
     solve_in_place<2>(mk, rhs);
   }
-  out_.row_damping.head(m).setConstant(std::sqrt(mu2));
+  // Each row's lambda (isolated rows' below): zero in the common case, written only when
+  // some row is damped, and cleared once after.
+  clear_row_damping();
+  if (blocks > 1) {
+    for (int i = 0; i < m && mu2 > 0.0; ++i)
+      if (row_block_[i] >= 0) out_.row_damping[i] = std::sqrt(block_mu2_[row_block_[i]]);
+  } else if (mu2 > 0.0) {
+    std::fill_n(out_.row_damping.data(), m, std::sqrt(mu2));
+  }
+  row_damping_zero_ = mu2 == 0.0;
+  // Each dof's block, for scaling each block's task part to the speed limits apart: the
+  // kept rows' blocks, then one per isolated row (every eliminated row, where blocks > 1).
+  task_blocks_ = 1;
+  if (blocks > 1 || isolated > 0) {
+    const int kept_blocks = blocks > 1 ? blocks : 1;
+    std::fill(dof_block_.begin(), dof_block_.end(), -1);
+    for (int c = 0; c < nr && mk > 0; ++c) {
+      int j = 0;
+      while (j + 1 < mk && H[c + j * ld] == 0.0) ++j;
+      dof_block_[dofs[c]] = blocks > 1 ? blocks_->block(j) : 0;
+    }
+    task_blocks_ = kept_blocks;
+    for (int e = 0; e < p; ++e)
+      dof_block_[elimination.eliminated_dof(e)] = elimination.is_isolated(e) ? task_blocks_++
+                                                  : blocks > 1 ? row_block_[elimination.eliminated_row(e)]
+                                                               : 0;
+  }
   // An isolated row's damping from its own singular value |h_k|, by the same rule (raised
   // alike: a row of a custom element on one dof can pass through J_ik = 0).
   const double raised_max2 = effective_damping_factor_ * parameters_.max_damping * parameters_.max_damping;
@@ -505,8 +734,11 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
     const double mu2_k = isolated_damping(k);
     min_eigenvalue = std::min(min_eigenvalue, elimination.entry(k) * elimination.entry(k));
     max_mu2 = std::max(max_mu2, mu2_k);
-    out_.row_damping[elimination.eliminated_row(k)] = std::sqrt(mu2_k);
-    if (mu2_k > 0.0) flags |= kDamped;
+    if (mu2_k > 0.0 || !row_damping_zero_) out_.row_damping[elimination.eliminated_row(k)] = std::sqrt(mu2_k);
+    if (mu2_k > 0.0) {
+      row_damping_zero_ = false;
+      flags |= kDamped;
+    }
   }
   out_.min_singular_value = std::sqrt(min_eigenvalue);
   out_.damping = std::sqrt(max_mu2);
@@ -523,7 +755,9 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
   }
   for (int e = 0; e < p; ++e) {
     const int k = elimination.eliminated_dof(e);
-    const double mu2_e = isolated > 0 && elimination.is_isolated(e) ? isolated_damping(e) : mu2;
+    const double mu2_e = isolated > 0 && elimination.is_isolated(e) ? isolated_damping(e)
+                         : blocks > 1                                 ? elim_mu2_[e]
+                                                                      : mu2;
     out_.qdot_task[k] = range_[k] * elimination.task_entry(e, y_.data(), xdot.data(), mu2_e);
     out_.qdot_null[k] = range_[k] * elimination.null_entry(e, u_.data(), range_[k] * gradient[k], mu2_e);
   }
@@ -550,7 +784,7 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
       !internal::all_finite(gradient.data(), n) ||
       (q != nullptr && q->size() != n)) {
     status.flags |= kInvalidInput;
-    out_.row_damping.setZero();
+    clear_row_damping();
     return status;
   }
   // A raised damping holds as long as the command is as fast as when it was raised: the
@@ -616,14 +850,19 @@ SolverStatus WholeBodySolver::solve(const Eigen::Ref<const Eigen::MatrixXd>& J,
   const Eigen::VectorXd& vmax = model_.max_speeds();
   if (parameters_.limit_speeds) {
     double task_scale = 1.0;
-    if (internal::any_exceeds(out_.qdot_task.data(), vmax.data(), n))
-      for (int i = 0; i < n; ++i) {
-        const double v = std::abs(out_.qdot_task[i]);
-        if (v > vmax[i]) task_scale = std::min(task_scale, vmax[i] / v);
+    if (internal::any_exceeds(out_.qdot_task.data(), vmax.data(), n)) {
+      if (task_blocks_ > 1) {
+        task_scale = scale_task_blocks();
+      } else {
+        for (int i = 0; i < n; ++i) {
+          const double v = std::abs(out_.qdot_task[i]);
+          if (v > vmax[i]) task_scale = std::min(task_scale, vmax[i] / v);
+        }
+        out_.qdot_task *= task_scale;
       }
+    }
     if (task_scale < 1.0) {
       status.flags |= kTaskSpeedLimited;
-      out_.qdot_task *= task_scale;
       out_.task_scale = task_scale;
     }
     // Largest s in [0, 1] with |qdot_task + s qdot_null| <= vmax for every dof; s = 1

@@ -130,16 +130,25 @@ double UnitRowElimination::coupling_dot(int k, const double* x) const {
   return s0 + s1;
 }
 
-void UnitRowElimination::reduce(const double* f, double* __restrict__ z, double mu2) const {
+template <class Damping>
+void UnitRowElimination::reduce_with(const double* f, double* __restrict__ z, Damping mu2) const {
   if (kept_leading_)
     std::copy_n(f, m_kept_, z);
   else
     for (int j = 0; j < m_kept_; ++j) z[j] = f[kept_rows_[j]];
   for (int k = 0; k < p_; ++k) {
-    const double c = f[row_[k]] * h_over_dd(k, mu2);
+    const double c = f[row_[k]] * h_over_dd(k, mu2(k));
     const double* __restrict__ b = &b_(k, 0);
     for (int j = 0; j < m_kept_; ++j) z[j] -= b[j] * c;
   }
+}
+
+void UnitRowElimination::reduce(const double* f, double* z, double mu2) const {
+  reduce_with(f, z, [mu2](int) { return mu2; });
+}
+
+void UnitRowElimination::reduce(const double* f, double* z, const double* mu2) const {
+  reduce_with(f, z, [mu2](int k) { return mu2[k]; });
 }
 
 void UnitRowElimination::expand(const double* f, const double* z, double* x, double mu2) const {
@@ -152,11 +161,14 @@ void UnitRowElimination::expand(const double* f, const double* z, double* x, dou
   for (int j = 0; j < m_kept_; ++j) x[kept_rows_[j]] = z[j];
 }
 
-void UnitRowElimination::add_damping(double* A, Eigen::Index lda, double mu2_new, double mu2_old) const {
-  for (int j = 0; j < m_kept_; ++j) A[j + j * lda] += mu2_new - mu2_old;
+template <class KeptChange, class New, class Old>
+void UnitRowElimination::add_damping_with(double* A, Eigen::Index lda, KeptChange kept_change, New mu2_new,
+                                          Old mu2_old) const {
+  for (int j = 0; j < m_kept_; ++j) A[j + j * lda] += kept_change(j);
   for (int k = 0; k < p_; ++k) {
     const double h2 = h_[k] * h_[k];
-    const double c = mu2_new / (h2 + mu2_new) - mu2_old / (h2 + mu2_old);
+    const double c = mu2_new(k) / (h2 + mu2_new(k)) - mu2_old(k) / (h2 + mu2_old(k));
+    if (c == 0.0) continue;
     const double* b = &b_(k, 0);
     for (int j = 0; j < m_kept_; ++j) {
       const double cb = c * b[j];
@@ -165,15 +177,37 @@ void UnitRowElimination::add_damping(double* A, Eigen::Index lda, double mu2_new
   }
 }
 
-void UnitRowElimination::add_damped_gradient(const double* gradient, const double* range, double* z,
-                                             double mu2) const {
-  if (mu2 == 0.0) return;
+void UnitRowElimination::add_damping(double* A, Eigen::Index lda, double mu2_new, double mu2_old) const {
+  add_damping_with(A, lda, [=](int) { return mu2_new - mu2_old; }, [=](int) { return mu2_new; },
+                   [=](int) { return mu2_old; });
+}
+
+template <class Damping>
+void UnitRowElimination::add_damped_gradient_with(const double* gradient, const double* range, double* z,
+                                                  Damping mu2) const {
   for (int k = 0; k < p_; ++k) {
+    if (mu2(k) == 0.0) continue;
     const int d = dof_[k];
-    const double c = range[d] * gradient[d] * mu2 / (h_[k] * h_[k] + mu2);
+    const double c = range[d] * gradient[d] * mu2(k) / (h_[k] * h_[k] + mu2(k));
     const double* b = &b_(k, 0);
     for (int j = 0; j < m_kept_; ++j) z[j] += b[j] * c;
   }
+}
+
+void UnitRowElimination::add_damped_gradient(const double* gradient, const double* range, double* z,
+                                             double mu2) const {
+  if (mu2 != 0.0) add_damped_gradient_with(gradient, range, z, [mu2](int) { return mu2; });
+}
+
+void UnitRowElimination::add_damping(double* A, Eigen::Index lda, const double* kept_change, const double* mu2_new,
+                                     const double* mu2_old) const {
+  add_damping_with(A, lda, [kept_change](int j) { return kept_change[j]; }, [mu2_new](int k) { return mu2_new[k]; },
+                   [mu2_old](int k) { return mu2_old[k]; });
+}
+
+void UnitRowElimination::add_damped_gradient(const double* gradient, const double* range, double* z,
+                                             const double* mu2) const {
+  add_damped_gradient_with(gradient, range, z, [mu2](int k) { return mu2[k]; });
 }
 
 double UnitRowElimination::task_entry(int k, const double* y_kept, const double* xdot, double mu2) const {

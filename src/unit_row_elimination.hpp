@@ -102,6 +102,15 @@ class UnitRowElimination {
   /// The null-space right-hand side from H_R^T g~ to S(mu)'s: z += sum_k b_k g~_k mu^2 / dd_k,
   /// with g~_k = r_dk dH/dq_dk.
   void add_damped_gradient(const double* gradient, const double* range, double* z, double mu2) const;
+  /// As reduce(), add_damping() and add_damped_gradient(), with a damping mu2[k] of its own
+  /// for each eliminated row k (independent blocks of rows damped apart); add_damping()
+  /// changes kept row j's diagonal entry by kept_change[j].
+  void reduce(const double* f, double* z, const double* mu2) const;
+  void add_damping(double* A, Eigen::Index lda, const double* kept_change, const double* mu2_new,
+                   const double* mu2_old) const;
+  void add_damped_gradient(const double* gradient, const double* range, double* z, const double* mu2) const;
+  /// b_k over the kept rows (num_kept() entries).
+  const double* coupling(int k) const { return &b_(k, 0); }
   /// Scaled task part (H y)_dk of eliminated dof k from the kept rows' solution y_R:
   /// (mu^2 b_k . y_R + h_k xdot_k) / dd_k.
   double task_entry(int k, const double* y_kept, const double* xdot, double mu2) const;
@@ -113,6 +122,13 @@ class UnitRowElimination {
   bool rows_vanish(const Eigen::Ref<const Eigen::MatrixXd>& J, const double* H, Eigen::Index ld, int np) const;
   void gather_couplings(const Eigen::Ref<const Eigen::MatrixXd>& J, const double* range);
   double coupling_dot(int k, const double* x) const;  // b_k . x over the kept rows
+  // The damped functions for a damping given per eliminated row, mu2(k).
+  template <class Damping>
+  void reduce_with(const double* f, double* z, Damping mu2) const;
+  template <class KeptChange, class New, class Old>
+  void add_damping_with(double* A, Eigen::Index lda, KeptChange kept_change, New mu2_new, Old mu2_old) const;
+  template <class Damping>
+  void add_damped_gradient_with(const double* gradient, const double* range, double* z, Damping mu2) const;
   double h_over_dd(int k, double mu2) const {           // h_k / dd_k
     return mu2 == 0.0 ? inverse_h_[k] : h_[k] / (h_[k] * h_[k] + mu2);
   }

@@ -16,6 +16,7 @@
 namespace wbm {
 namespace internal {
 class UnitRowElimination;
+class RowBlocks;
 }
 
 struct SolverParameters {
@@ -67,11 +68,11 @@ struct SolverOutput {
   Eigen::VectorXd qdot_null;  ///< -alpha N W^-1 dH/dq part (after scaling).
   double min_singular_value = 0.0;  ///< Estimate of sigma_min of J W^-1/2.
   double damping = 0.0;             ///< The largest lambda used (of row_damping).
-  /// lambda of each active row (the first m entries; max_rows in all): the same for every
-  /// row but isolated joint rows, which are damped by their own singular value alone.
+  /// lambda of each active row (the first m entries; max_rows in all): the same for the rows
+  /// of one independent block, each block's from its own sigma_min.
   Eigen::VectorXd row_damping;
   double nullspace_scale = 1.0;     ///< Factor applied to the null-space part.
-  double task_scale = 1.0;          ///< Factor applied to the task part.
+  double task_scale = 1.0;          ///< Factor applied to the task part (the smallest block's).
   bool frozen_set_changed = false;  ///< The dofs frozen at their limits differ from the last solve's.
 };
 
@@ -95,10 +96,11 @@ struct SolverOutput {
 ///
 /// Rows with one non-zero entry among the free dofs (joint rows) are solved exactly by
 /// block elimination instead of inside A (same result up to rounding; docs/solver.md).
-/// A joint row on a dof that no other active row has an entry at (a gripper's stroke, a
-/// joint task outside every other task's chain) is a block of A of its own: it is damped
-/// by its own singular value r_k |J_ik| alone, the other rows by theirs (row_damping), so
-/// that a singular arm does not damp a gripper, nor a gripper of short stroke the arms.
+/// Independent blocks of rows (no free dof in common, directly or through other rows: the
+/// arms of a robot on a fixed base; a joint row on a dof no other row touches, such as a
+/// gripper's) are damped each by its own sigma_min (row_damping) and their task parts
+/// scaled to the speed limits each on its own, so that an arm out of reach does not hold
+/// back the other arm or a gripper (docs/solver.md).
 class WholeBodySolver {
  public:
   /// @param max_rows the largest number of task rows that will be passed.
@@ -180,6 +182,20 @@ class WholeBodySolver {
   /// v <- w / |w| for w = A^-1 v (in step_); returns the Rayleigh quotient (v . w) / |w|^2
   /// and the cosine of the angle between v and w.
   double finish_inverse_iteration_step(int m, double& cosine);
+  /// resolve() for independent blocks of rows (m rows, mk kept): sigma_min^2 and damping per
+  /// block, y and u solved, row_damping written for the rows that are not isolated, the
+  /// eliminated rows' damping in elim_mu2_; returns the smallest sigma_min^2 and sets the
+  /// largest damping mu^2 in max_mu2.
+  double resolve_blocks(int m, int mk, int blocks, const Eigen::Ref<const Eigen::VectorXd>& xdot,
+                        const Eigen::Ref<const Eigen::VectorXd>& gradient, double& max_mu2, std::uint32_t& flags);
+  /// One inverse-iteration step on every block at once with A + shift E: the iterate
+  /// normalised per block, each block's Rayleigh quotient minus the shift in block_lambda_;
+  /// returns whether a block near the threshold still turned.
+  bool block_iteration_step(int m, int mk, int blocks, double shift);
+  /// Sets every entry of row_damping to zero unless they are.
+  void clear_row_damping();
+  /// Scales each block's task part to the speed limits on its own; returns the smallest factor.
+  double scale_task_blocks();
 
   const Model& model_;
   SolverParameters parameters_;
@@ -194,6 +210,17 @@ class WholeBodySolver {
   void (*three_solves_)(const double* L, Eigen::Index ld, const double* inv_d, int m, const double* b0,
                         const double* b1, const double* b2, double* x0, double* x1, double* x2, double* X);
   std::unique_ptr<internal::UnitRowElimination> elimination_;  // joint rows, solved exactly outside A
+  std::unique_ptr<internal::RowBlocks> blocks_;  // independent blocks of the kept rows
+  // Per row: the blocks' iterate, its step and reduced form; per block: sigma_min^2, damping
+  // mu^2, and sums of the iteration and the task bound; per kept row the diagonal's change,
+  // per eliminated row its damping before and now (the block path of resolve()).
+  Eigen::VectorXd block_v_, block_w_, block_z_, block_lambda_, block_mu2_, block_sum1_, block_sum2_;
+  Eigen::VectorXd block_change_, block_old_, elim_mu2_;
+  std::vector<int> row_block_;  // per row: its block, -1 for an isolated row
+  int block_rows_ = -1;         // the row count of the block path's last iterate
+  bool row_damping_zero_ = true;  // every entry of out_.row_damping is zero
+  std::vector<int> dof_block_;  // per dof: its block of rows for the speed scaling (-1: none)
+  int task_blocks_ = 1;         // the number of those blocks in the last resolve()
   Mask free_;                 // b_C, plus dofs frozen at their limits
   Mask frozen_at_limit_;      // the dofs frozen at their limits in the last solve
   bool any_frozen_at_limit_ = false;
