@@ -44,7 +44,7 @@ class RowBlocks {
   int find_blocks(const double* A, Eigen::Index lda, int mk, const UnitRowElimination& elimination);
   int root(int j);
   std::vector<int> parent_, label_, previous_label_;
-  int count_ = 1, previous_count_ = 1, previous_rows_ = -1;
+  int count_ = 1, previous_rows_ = -1;
   bool unchanged_ = false;
 };
 
