@@ -268,17 +268,23 @@ double WholeBodySolver::finish_inverse_iteration_step(int m, double& cosine) {
   return vw / w2;
 }
 
-double WholeBodySolver::inverse_iteration_step(int m, int p, double& cosine) {
-  if (p > 0) {
-    elimination_->reduce(v_.data(), z_.data(), 0.0);
-    double* const rhs[1] = {z_.data()};
-    solve_in_place<1>(m - p, rhs);
-    elimination_->expand(v_.data(), z_.data(), step_.data(), 0.0);
+void WholeBodySolver::apply_inverse(int m, double shift, const double* v, double* z, double* w) const {
+  const internal::UnitRowElimination& elimination = *elimination_;
+  const int mk = elimination.num_kept();
+  if (elimination.num_eliminated() > 0) {
+    elimination.reduce(v, z, shift);
+    double* const rhs[1] = {z};
+    solve_in_place<1>(mk, rhs);
+    elimination.expand(v, z, w, shift);
   } else {
-    step_.head(m) = v_.head(m);
-    double* const rhs[1] = {step_.data()};
+    std::copy_n(v, m, w);
+    double* const rhs[1] = {w};
     solve_in_place<1>(m, rhs);
   }
+}
+
+double WholeBodySolver::inverse_iteration_step(int m, double& cosine) {
+  apply_inverse(m, 0.0, v_.data(), z_.data(), step_.data());
   return finish_inverse_iteration_step(m, cosine);
 }
 
@@ -288,23 +294,12 @@ void WholeBodySolver::clear_row_damping() {
   row_damping_zero_ = true;
 }
 
-bool WholeBodySolver::block_iteration_step(int m, int mk, int blocks, double shift) {
-  // w = (A + shift)^-1 v, through the eliminated rows' Schur complement as in
-  // inverse_iteration_step(); then each block's part of v and w on its own.
-  const internal::UnitRowElimination& elimination = *elimination_;
+bool WholeBodySolver::block_iteration_step(int m, int blocks, double shift) {
+  // w = (A + shift E)^-1 v, then each block's part of v and w on its own.
   const int* label = row_block_.data();
   double* __restrict__ v = block_v_.data();
   double* __restrict__ w = block_w_.data();
-  if (elimination.num_eliminated() > 0) {
-    elimination.reduce(v, block_z_.data(), shift);
-    double* const rhs[1] = {block_z_.data()};
-    solve_in_place<1>(mk, rhs);
-    elimination.expand(v, block_z_.data(), w, shift);
-  } else {
-    std::copy_n(v, m, w);
-    double* const rhs[1] = {w};
-    solve_in_place<1>(mk, rhs);
-  }
+  apply_inverse(m, shift, v, block_z_.data(), w);
   double* w2 = block_sum1_.data();
   double* vw = block_sum2_.data();
   std::fill_n(w2, blocks, 0.0);
@@ -381,8 +376,8 @@ double WholeBodySolver::resolve_blocks(int m, int mk, int blocks, const Eigen::R
       steps = 3;
     }
     bool turning = false;
-    for (int k = 0; k < steps; ++k) turning = block_iteration_step(m, mk, blocks, shift);
-    if (turning) block_iteration_step(m, mk, blocks, shift);
+    for (int k = 0; k < steps; ++k) turning = block_iteration_step(m, blocks, shift);
+    if (turning) block_iteration_step(m, blocks, shift);
     // The task and null-space solves (of A + shift E), and each block's bound from the task
     // solve (see resolve()): lambda_b + shift <= |b_b| / |y_b| over its kept rows.
     if (p > 0)
@@ -611,8 +606,8 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
   const int isolated = elimination.num_isolated();
   // A = H^T H (lower triangle).
   gram_(H, H, ld, mk, np, extent_.data(), A_.data(), A_.outerStride());
-  // Independent blocks of the kept rows (no free dof in common: A block diagonal), each
-  // damped by its own sigma_min; only where no eliminated row couples kept rows.
+  // Independent blocks of rows (no free dof in common, also through the eliminated rows'
+  // couplings: the full A block diagonal), each damped by its own sigma_min.
   const int blocks = mk > 1 ? blocks_->find(A_.data(), A_.outerStride(), mk, elimination) : 1;
   // u = J W^-1 dH/dq = H^T (W^-1/2 dH/dq), two rows at a time.
   for (int i = 0; i < mk; i += 2) {
@@ -639,7 +634,7 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
   } else if (factorize(mk)) {
     const int steps = start_inverse_iteration(m);
     double cosine = 1.0;  // between the iterate before and after a step
-    for (int k = 1; k < steps; ++k) inverse_iteration_step(m, p, cosine);
+    for (int k = 1; k < steps; ++k) inverse_iteration_step(m, cosine);
     if (p > 0) {
       elimination.reduce(xdot.data(), y_.data(), 0.0);
       elimination.reduce(v_.data(), z_.data(), 0.0);
@@ -660,7 +655,7 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
     // in this step (after a dof froze or the targets jumped) takes another step. In steady
     // motion the iterate has settled (the warm start) and one step per cycle suffices.
     if (lambda_min < 4.0 * eps2 && 1.0 - cosine * cosine > kSettledIterate)
-      lambda_min = inverse_iteration_step(m, p, cosine);
+      lambda_min = inverse_iteration_step(m, cosine);
     // The task solve bounds it as well: |A^-1 b| <= |b| / lambda_min for every b, so
     // lambda_min <= |b| / |A^-1 b| (for the system reduced by joint rows too: its smallest
     // eigenvalue is at least A's). Inverse iteration warm-started from the last cycle can
@@ -704,18 +699,17 @@ std::uint32_t WholeBodySolver::resolve(const Eigen::Ref<const Eigen::MatrixXd>& 
     std::fill_n(out_.row_damping.data(), m, std::sqrt(mu2));
   }
   row_damping_zero_ = mu2 == 0.0;
-  // Each dof's block, for scaling each block's task part to the speed limits apart: the
-  // kept rows' blocks, then one per isolated row (every eliminated row, where blocks > 1).
+  // Each dof's block, for scaling each block's task part to the speed limits apart: that of
+  // the rows it has entries in, and one more block per isolated row.
   task_blocks_ = 1;
   if (blocks > 1 || isolated > 0) {
-    const int kept_blocks = blocks > 1 ? blocks : 1;
     std::fill(dof_block_.begin(), dof_block_.end(), -1);
     for (int c = 0; c < nr && mk > 0; ++c) {
       int j = 0;
       while (j + 1 < mk && H[c + j * ld] == 0.0) ++j;
       dof_block_[dofs[c]] = blocks > 1 ? blocks_->block(j) : 0;
     }
-    task_blocks_ = kept_blocks;
+    task_blocks_ = blocks;
     for (int e = 0; e < p; ++e)
       dof_block_[elimination.eliminated_dof(e)] = elimination.is_isolated(e) ? task_blocks_++
                                                   : blocks > 1 ? row_block_[elimination.eliminated_row(e)]

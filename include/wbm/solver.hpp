@@ -176,9 +176,12 @@ class WholeBodySolver {
   void solve_in_place(int m, double* const (&x)[K]) const;
   /// Prepares the inverse-iteration vector v for this cycle; returns the number of steps.
   int start_inverse_iteration(int m);
-  /// One step v <- A^-1 v / |A^-1 v| (through the eliminated rows' Schur complement when
-  /// p > 0); returns the Rayleigh quotient, an upper bound of lambda_min.
-  double inverse_iteration_step(int m, int p, double& cosine);
+  /// One step v <- A^-1 v / |A^-1 v| (apply_inverse()); returns the Rayleigh quotient, an
+  /// upper bound of lambda_min.
+  double inverse_iteration_step(int m, double& cosine);
+  /// w = (A + shift E)^-1 v over the m rows (through the eliminated rows' Schur complement
+  /// of the factor's matrix, which must be that of A + shift E); z: scratch of mk entries.
+  void apply_inverse(int m, double shift, const double* v, double* z, double* w) const;
   /// v <- w / |w| for w = A^-1 v (in step_); returns the Rayleigh quotient (v . w) / |w|^2
   /// and the cosine of the angle between v and w.
   double finish_inverse_iteration_step(int m, double& cosine);
@@ -191,7 +194,7 @@ class WholeBodySolver {
   /// One inverse-iteration step on every block at once with A + shift E: the iterate
   /// normalised per block, each block's Rayleigh quotient minus the shift in block_lambda_;
   /// returns whether a block near the threshold still turned.
-  bool block_iteration_step(int m, int mk, int blocks, double shift);
+  bool block_iteration_step(int m, int blocks, double shift);
   /// Sets every entry of row_damping to zero unless they are.
   void clear_row_damping();
   /// Scales each block's task part to the speed limits on its own; returns the smallest factor.
