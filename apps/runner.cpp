@@ -146,6 +146,30 @@ void progress_bar(double t, double duration, bool done) {
   std::fflush(stderr);
 }
 
+/// Records a cycle in which balance drove an upper-body shift dof at its limit further out
+/// (kShiftAtLimit): which dof, its limit, and the shift the centre of mass would have needed,
+/// the dof's value plus the centre of mass's offset from the target's centroid along the dof's
+/// axis (the heel frame's x or y; the whole upper body moves with the shift).
+void note_shift_at_limit(const Model& model, const Controller& c, const SupportPolygon& target, const Command& cmd,
+                         ScenarioRun& run) {
+  const VirtualDofs& v = model.virtual_dofs();
+  const Vector2 com = center_of_mass_position(model, c.data()).head<2>();
+  const Matrix3& R_WH = c.data().X_WB[v.heel_body].R;
+  const Vector2 offset_H = R_WH.topLeftCorner<2, 2>().transpose() * (target.centroid() - com);
+  const std::array<int, 2> dofs = {v.ub_x, v.ub_y};
+  for (int k = 0; k < 2; ++k) {
+    const Dof& d = model.dof(dofs[k]);
+    const double q = c.q()[dofs[k]], velocity = cmd.external_velocity[dofs[k]];
+    const bool at_upper = velocity > 0.0 && q >= d.upper - 1e-6, at_lower = velocity < 0.0 && q <= d.lower + 1e-6;
+    if (!at_upper && !at_lower) continue;
+    ScenarioRun::ShiftAtLimit& s = run.shift_at_limit[k];
+    const double needed = q + offset_H[k];
+    if (s.cycles == 0 || (at_upper ? needed > s.needed : needed < s.needed)) s.needed = needed;
+    s.limit = at_upper ? d.upper : d.lower;
+    ++s.cycles;
+  }
+}
+
 }  // namespace
 
 Eigen::VectorXd ScenarioRun::actual_of(const std::string& name, int k) const {
@@ -367,8 +391,12 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
     }
     // During a walk the upper body is balanced over the feet as planned beside the floating
     // heel, not over the feet left behind (WalkingModule::planned_support).
-    if (balance && balance_on)
-      balance->update(c.data(), walking && walking->walking() ? walking->planned_support(c.q()) : support, s.dt, cmd);
+    if (balance && balance_on) {
+      const SupportPolygon& target = walking && walking->walking() ? walking->planned_support(c.q()) : support;
+      const std::uint32_t balance_flags = balance->update(c.data(), target, s.dt, cmd);
+      ++run->balanced_cycles;
+      if (balance_flags & kShiftAtLimit) note_shift_at_limit(model, c, target, cmd, *run);
+    }
     const auto t0 = std::chrono::steady_clock::now();
     const ControllerStatus st = c.update(cmd, s.dt);
     last_status = st;
@@ -501,7 +529,20 @@ json summarize(const ScenarioRun& run) {
     double min_margin = 1e300;
     for (const Eigen::VectorXd& b : run.balance) min_margin = std::min(min_margin, b[6]);
     out["balance"] = {{"min_com_margin", min_margin}, {"final_com_margin", run.balance.back()[6]},
-                      {"on_at_end", run.balance_on_at_end}};
+                      {"on_at_end", run.balance_on_at_end}, {"balanced_cycles", run.balanced_cycles}};
+    json at_limit = json::array();
+    for (int k = 0; k < 2; ++k) {
+      const ScenarioRun::ShiftAtLimit& a = run.shift_at_limit[k];
+      if (a.cycles > 0) {
+        const std::string dof = k == 0 ? "upper_body_x" : "upper_body_y";
+        const std::string remedy = run.scenario.urdf.empty()
+                                       ? "the built-in paper model's range is fixed"
+                                       : "widen robot." + dof + "_range for these feet";
+        at_limit.push_back({{"dof", dof}, {"cycles", a.cycles}, {"limit", a.limit}, {"needed", a.needed},
+                            {"remedy", remedy}});
+      }
+    }
+    out["balance"]["shift_at_limit"] = at_limit;
   }
   out["nullspace_cost"] = {{"initial", run.cost.front()}, {"final", run.cost.back()},
                            {"max", *std::max_element(run.cost.begin(), run.cost.end())}};

@@ -2,6 +2,7 @@
 /// @file
 /// Runs a scenario as a motion simulation and records every cycle.
 
+#include <array>
 #include <memory>
 #include <string>
 #include <vector>
@@ -35,6 +36,16 @@ struct ScenarioRun {
   FootGeometry feet;                     ///< the feet used for the support polygon
   std::vector<SupportPolygon> support;   ///< per cycle when balance or walking runs (empty otherwise)
   bool balance_on_at_end = false;        ///< balance was switched on in the last cycle (scenario or its events)
+  /// Where balance drove an upper-body shift dof (x, then y) at its position limit further out
+  /// (BalanceFlag kShiftAtLimit): the cycles, the limit, and the largest shift the centre of
+  /// mass would have needed to reach the law's target (the shift plus the centre of mass's
+  /// offset from the support's centroid along the dof) [m].
+  struct ShiftAtLimit {
+    int cycles = 0;
+    double limit = 0.0, needed = 0.0;
+  };
+  std::array<ShiftAtLimit, 2> shift_at_limit;
+  int balanced_cycles = 0;  ///< cycles with balance on
 
   int num_cycles() const { return static_cast<int>(time.size()); }
   int element(const std::string& name) const { return controller->tasks().element_index(name); }

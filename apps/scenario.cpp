@@ -162,7 +162,7 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
   if (root["description"]) s.description = r.text(root["description"], "description");
   if (const YAML::Node robot = root["robot"]) {
     r.only(robot, "robot", {"builtin", "urdf", "root", "legs", "drop_legs", "root_height", "root_rpy", "default_limits",
-                            "fixed_base"});
+                            "upper_body_x_range", "upper_body_y_range", "fixed_base"});
     s.robot_line = r.line(robot);
     if (robot["builtin"] && r.text(robot["builtin"], "robot.builtin") != "paper")
       r.fail(robot["builtin"], "robot.builtin", "expected 'paper' (the only built-in model)");
@@ -171,7 +171,8 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
       s.urdf = r.text(robot["urdf"], "robot.urdf");
       if (!s.urdf.empty() && s.urdf[0] != '/') s.urdf = base_dir + "/" + s.urdf;
     } else {  // the import options would be ignored without a word
-      for (const char* option : {"root", "legs", "drop_legs", "root_height", "root_rpy", "default_limits"})
+      for (const char* option : {"root", "legs", "drop_legs", "root_height", "root_rpy", "default_limits",
+                                 "upper_body_x_range", "upper_body_y_range"})
         if (robot[option])
           r.fail(robot[option], std::string("robot.") + option,
                  "an option of the URDF import; the built-in paper model takes none (add robot.urdf)");
@@ -186,6 +187,17 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
       if (rpy.size() != 3) r.fail(robot["root_rpy"], "robot.root_rpy", "expected [roll, pitch, yaw] in rad");
       s.urdf_options.root_rpy = rpy;
     }
+    auto range = [&](const char* option, std::array<double, 2>& out) {
+      const YAML::Node node = robot[option];
+      if (!node) return;
+      const std::string field = std::string("robot.") + option;
+      const Eigen::VectorXd v = r.vector(node, field);
+      if (v.size() != 2 || !(v.array().abs() <= kMaxLength).all() || !(v[0] < v[1]))
+        r.fail(node, field, "expected [lower, upper] in m, finite, lower < upper");
+      out = {v[0], v[1]};
+    };
+    range("upper_body_x_range", s.urdf_options.upper_body_x_range);
+    range("upper_body_y_range", s.urdf_options.upper_body_y_range);
     if (robot["default_limits"]) s.urdf_options.default_limits = r.boolean(robot["default_limits"], "robot.default_limits");
     if (robot["fixed_base"]) s.fixed_base = r.boolean(robot["fixed_base"], "robot.fixed_base");
   }

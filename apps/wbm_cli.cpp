@@ -31,7 +31,7 @@ struct ModelSource {
   wbm::UrdfImportOptions urdf;
   bool drop_legs = false;
   CLI::Option* root_height_option = nullptr;
-  std::vector<double> root_rpy;
+  std::vector<double> root_rpy, upper_body_x_range, upper_body_y_range;
 
   void add_to(CLI::App& app) {
     app.add_option("file", file, "URDF file (default: the built-in paper model)");
@@ -47,6 +47,15 @@ struct ModelSource {
         ->expected(3);
     app.add_flag("--default-limits", urdf.default_limits,
                  "give joints without limits [-pi, pi] rad, 2 rad/s ([-1, 1] m, 0.5 m/s prismatic)");
+    app.add_option("--upper-body-x-range", upper_body_x_range,
+                   "range of the upper body's forward shift over the heel (the feet's back edge): lower,upper [m] "
+                   "(default -0.02,0.14; further forward for long feet)")
+        ->delimiter(',')
+        ->expected(2);
+    app.add_option("--upper-body-y-range", upper_body_y_range,
+                   "range of the upper body's sideways shift: lower,upper [m] (default -0.08,0.08)")
+        ->delimiter(',')
+        ->expected(2);
   }
 
   wbm::Model load() {
@@ -55,6 +64,8 @@ struct ModelSource {
     if (root_height_option->count() > 0 && std::isnan(urdf.root_height))
       throw wbm::ConfigError("--root-height: expected a finite height > 0 m, got nan");
     if (!root_rpy.empty()) urdf.root_rpy = Eigen::Vector3d(root_rpy[0], root_rpy[1], root_rpy[2]);
+    if (!upper_body_x_range.empty()) urdf.upper_body_x_range = {upper_body_x_range[0], upper_body_x_range[1]};
+    if (!upper_body_y_range.empty()) urdf.upper_body_y_range = {upper_body_y_range[0], upper_body_y_range[1]};
     urdf.leg_mode = drop_legs ? wbm::LegMode::kDrop : wbm::LegMode::kLock;
     return wbm::load_urdf(file, urdf);
   }
@@ -287,6 +298,18 @@ int run_scenarios(const std::vector<std::string>& files, const std::string& out,
                     : on          ? "OUTSIDE the feet at the end (the upper-body shift could not bring it over them)"
                                   : "OUTSIDE the feet at the end")
                 << (on ? "\n" : " (balance off)\n");
+      // The shift held at a limit of its range: name the range to widen and by how much.
+      for (const json& a : summary["balance"]["shift_at_limit"]) {
+        const std::string dof = a["dof"].get<std::string>();
+        const double limit = a["limit"].get<double>(), needed = a["needed"].get<double>();
+        const int cycles = a["cycles"].get<int>(), balanced = summary["balance"]["balanced_cycles"].get<int>();
+        std::ostringstream line;
+        line << std::fixed << std::setprecision(1) << "  balance: " << dof << " held at its limit " << limit * 100.0
+             << " cm in " << cycles << " of " << balanced << " balanced cycles (" << 100.0 * cycles / std::max(balanced, 1)
+             << " %); the centre of mass would have needed " << needed * 100.0 << " cm: "
+             << a["remedy"].get<std::string>() << "\n";
+        std::cerr << line.str();
+      }
     }
     if (summary.contains("walking")) {
       const json& w = summary["walking"];

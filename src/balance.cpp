@@ -130,6 +130,14 @@ std::uint32_t BalanceModule::update(const Data& data, const SupportPolygon& supp
   const double scale = std::min({1.0, vx / std::max(std::abs(v_H.x()), 1e-300), vy / std::max(std::abs(v_H.y()), 1e-300)});
   if (scale < 1.0) flags |= kShiftSaturated;
   v_H *= scale;
+  // A dof at its limit cannot move further out (the controller clamps it there); within a
+  // micrometre counts as at it, where braking and clamping leave it.
+  auto pushes_out = [&](int dof, double v) {
+    const Dof& d = model_.dof(dof);
+    const double q = data.q[dof];
+    return (v > 0.0 && q >= d.upper - 1e-6) || (v < 0.0 && q <= d.lower + 1e-6);
+  };
+  if (pushes_out(ub_x_, v_H.x()) || pushes_out(ub_y_, v_H.y())) flags |= kShiftAtLimit;
   command.external_velocity[ub_x_] = v_H.x();
   command.external_velocity[ub_y_] = v_H.y();
   return flags;

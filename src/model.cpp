@@ -373,7 +373,11 @@ int add_virtual_base(ModelBuilder& builder, double height, const std::string& up
                      const Inertial& heel, const Inertial& upper_body, const Matrix3& R_UR) {
   if (!std::isfinite(height) || height <= 0.0)
     throw ModelError("upper-body height above the heel must be > 0 m, got " + std::to_string(height));
-  const std::array<Dof, 9> dofs = default_virtual_dofs(height);
+  return add_virtual_base(builder, default_virtual_dofs(height), upper_body_name, heel, upper_body, R_UR);
+}
+
+int add_virtual_base(ModelBuilder& builder, const std::array<Dof, 9>& dofs, const std::string& upper_body_name,
+                     const Inertial& heel, const Inertial& upper_body, const Matrix3& R_UR) {
   const std::array<const char*, 9> body_names = {"heel_x", "heel_y", "heel", "upper_body_x",
                                                  "upper_body_y", "upper_body_z", "upper_body_roll",
                                                  "upper_body_pitch", ""};

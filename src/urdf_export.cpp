@@ -1,8 +1,11 @@
+#include <algorithm>
+#include <array>
 #include <charconv>
 #include <functional>
 #include <iomanip>
 #include <set>
 #include <sstream>
+#include <utility>
 
 #include "wbm/errors.hpp"
 #include "wbm/kinematics.hpp"
@@ -83,6 +86,19 @@ std::string export_urdf(const Model& model, const UrdfExportOptions& options) {
       const std::string height = shortest(model.dof(v.ub_z).upper);
       import_options += ", root_height " + height;
       flags += " --root-height " + height;
+    }
+    // Upper-body shift ranges other than the import's defaults.
+    const UrdfImportOptions defaults;
+    const std::array<std::pair<int, std::array<double, 2>>, 2> ranges = {
+        {{v.ub_x, defaults.upper_body_x_range}, {v.ub_y, defaults.upper_body_y_range}}};
+    for (const auto& [dof, range] : ranges) {
+      if (dof < 0 || (model.dof(dof).lower == range[0] && model.dof(dof).upper == range[1])) continue;
+      const std::string name = dof == v.ub_x ? "upper_body_x_range" : "upper_body_y_range";
+      const std::string lower = shortest(model.dof(dof).lower), upper = shortest(model.dof(dof).upper);
+      std::string flag = name;
+      std::replace(flag.begin(), flag.end(), '_', '-');
+      import_options += ", " + name + " " + lower + " " + upper;
+      flags += " --" + flag + " " + lower + "," + upper;
     }
     if (!model.body(root).X_PJ.R.isIdentity(0.0)) {  // turned by UrdfImportOptions::root_rpy
       const Vector3 rpy = rpy_from_rotation(model.body(root).X_PJ.R);

@@ -1,5 +1,6 @@
 #include "wbm/urdf_import.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -562,6 +563,21 @@ std::string root_link(const UrdfChecker& checker, const urdf::ModelInterface& ur
   return checker.root();
 }
 
+/// An upper-body shift range of UrdfImportOptions, checked and written into its dof.
+void set_upper_body_range(Dof& dof, const std::array<double, 2>& range, const std::string& option,
+                          const std::string& source) {
+  std::string flag = "--" + option;
+  std::replace(flag.begin(), flag.end(), '_', '-');
+  if (!(std::abs(range[0]) <= kMaxLength && std::abs(range[1]) <= kMaxLength && range[0] < range[1])) {
+    std::ostringstream msg;
+    msg << source << ": the upper body's shift range (" << option << ", " << flag
+        << ") must be finite with lower < upper [m], got " << range[0] << ", " << range[1];
+    throw ParseError(msg.str());
+  }
+  dof.lower = range[0];
+  dof.upper = range[1];
+}
+
 /// The names of the virtual dofs and bodies wbm adds (heel_x, ..., upper_body_yaw) are not
 /// available to the URDF's joints and links: a clash is an error naming the line (the model
 /// builder would only say "duplicate").
@@ -665,8 +681,11 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
                               "orientation with root_rpy, --root-rpy)");
 
   check_virtual_names(checker, tree, height);
+  std::array<Dof, 9> virtual_dofs = default_virtual_dofs(height);
+  set_upper_body_range(virtual_dofs[3], options.upper_body_x_range, "upper_body_x_range", source);
+  set_upper_body_range(virtual_dofs[4], options.upper_body_y_range, "upper_body_y_range", source);
   ModelBuilder builder(urdf->getName());
-  const int ub = add_virtual_base(builder, height, root, Inertial{}, tree.specs_[0].body.inertial, R_UR);
+  const int ub = add_virtual_base(builder, virtual_dofs, root, Inertial{}, tree.specs_[0].body.inertial, R_UR);
   std::map<std::string, int> frame_index{{root, builder.num_frames() - 1}};  // the root body's, added last
   // Number the dofs in body order; mimic joints share their master's dof.
   std::map<std::string, int> dof_of_joint;

@@ -305,6 +305,36 @@ TEST(Cli, NonFiniteConfigurationFails) {
                    "--root-height: expected a finite height > 0 m, got nan");
 }
 
+// --upper-body-x-range / -y-range set the upper body's shift ranges (for balance over long
+// feet); the export names them and its file imports with them; a bad range names the option.
+TEST(Cli, UpperBodyRangesAreUrdfOptions) {
+  const wbm_test::ShippedModel& g1 = wbm_test::shipped_model("g1_29dof");
+  const std::string file = "'" + g1.path + "' --legs left_hip_pitch_link,right_hip_pitch_link";
+  const std::string ranges = " --upper-body-x-range -0.05,0.3 --upper-body-y-range -0.1,0.12";
+  const json info = parse(wbm_cli("model info " + file + ranges + " --json"));
+  std::map<std::string, json> dofs;
+  for (const json& d : info["dofs"]) dofs[d["name"].get<std::string>()] = d;
+  EXPECT_EQ(dofs["upper_body_x"]["lower"].get<double>(), -0.05);
+  EXPECT_EQ(dofs["upper_body_x"]["upper"].get<double>(), 0.3);
+  EXPECT_EQ(dofs["upper_body_y"]["lower"].get<double>(), -0.1);
+  EXPECT_EQ(dofs["upper_body_y"]["upper"].get<double>(), 0.12);
+  const std::string exported = testing::TempDir() + "wbm_cli_ranges_export.urdf";
+  const CliRun out = wbm_cli("model export " + file + ranges + " -o '" + exported + "'");
+  ASSERT_EQ(out.status, 0) << out.err;
+  std::ifstream in(exported);
+  const std::string xml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const size_t flags = xml.find("(--root pelvis");
+  ASSERT_NE(flags, std::string::npos) << xml.substr(0, 400);
+  const std::string import_flags = xml.substr(flags + 1, xml.find(')', flags) - flags - 1);
+  EXPECT_NE(import_flags.find(ranges.substr(1)), std::string::npos) << import_flags;
+  const json back = parse(wbm_cli("model info '" + exported + "' " + import_flags + " --json"));
+  EXPECT_EQ(back["dofs"], info["dofs"]);
+  std::remove(exported.c_str());
+  expect_cli_error("model info " + file + " --upper-body-x-range 0.3,0",
+                   "(upper_body_x_range, --upper-body-x-range) must be finite with lower < upper [m], got 0.3, 0");
+  expect_cli_error("model info " + file + " --upper-body-y-range 0.3", "--upper-body-y-range");
+}
+
 // --root-rpy turns the root link: G1 turned by pi about z has its left hand on the world's
 // right (y < 0) at home; out of range is an error naming the option.
 TEST(Cli, RootRpyTurnsTheRobot) {
@@ -376,8 +406,12 @@ TEST(Cli, RunSaysHowBalanceAndWalkingEnded) {
   const std::string off = base + "_off.yaml";
   std::ofstream(off) << "name: off\nduration: 0.2\nfrozen: [heel_x, heel_y, heel_yaw]\nbalance: {enabled: false}\n"
                      << "feet: {length: 0.04, width: 0.1}\n" << tasks;
-  const CliRun r = wbm_cli("run '" + inside + "' '" + outside + "' '" + walk + "' '" + off + "' --out '" + base +
-                           "_dir' --no-report");
+  // Feet 0.6 m long: the upper body shifts forward to its limit and stays there.
+  const std::string long_feet = base + "_long.yaml";
+  std::ofstream(long_feet) << "name: long\nduration: 1\nfrozen: [heel_x, heel_y, heel_yaw]\nbalance: {enabled: true}\n"
+                           << "feet: {length: 0.6, width: 0.1}\n" << tasks;
+  const CliRun r = wbm_cli("run '" + inside + "' '" + outside + "' '" + walk + "' '" + off + "' '" + long_feet +
+                           "' --out '" + base + "_dir' --no-report");
   EXPECT_EQ(r.status, 0) << r.err;
   const size_t in = r.err.find("scenario in"), out = r.err.find("scenario out"), w = r.err.find("scenario walk");
   ASSERT_TRUE(in != std::string::npos && out != std::string::npos && w != std::string::npos) << r.err;
@@ -390,10 +424,15 @@ TEST(Cli, RunSaysHowBalanceAndWalkingEnded) {
       << r.err;
   EXPECT_NE(r.err.substr(w, o - w).find("  walking: 0 footsteps in 0 walks\n"), std::string::npos) << r.err;
   EXPECT_EQ(r.err.substr(w, o - w).find("balance:"), std::string::npos) << r.err;
+  const size_t l = r.err.find("scenario long");
+  ASSERT_NE(l, std::string::npos) << r.err;
+  EXPECT_NE(r.err.substr(l).find("  balance: upper_body_x held at its limit 14.0 cm in "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.substr(l).find("the built-in paper model's range is fixed"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.substr(0, l).find("held at its limit"), std::string::npos) << r.err;
   // And how close the joints came to their speed limits and to the bound on their rates' change.
   EXPECT_NE(r.err.substr(in, out - in).find("  joints: fastest at 0."), std::string::npos) << r.err;
   EXPECT_NE(r.err.substr(in, out - in).find(" of its bound k v_max (upper_body_"), std::string::npos) << r.err;
-  for (const std::string& f : {inside, outside, walk, off}) std::remove(f.c_str());
+  for (const std::string& f : {inside, outside, walk, off, long_feet}) std::remove(f.c_str());
   std::filesystem::remove_all(base + "_dir");
 }
 

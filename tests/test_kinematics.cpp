@@ -901,6 +901,50 @@ TEST(Export, PaperModelRoundTrip) {
   EXPECT_LT((wbm::center_of_mass(original, da) - wbm::center_of_mass(back, db)).cwiseAbs().maxCoeff(), 1e-9);
 }
 
+// The upper body's shift ranges are import options (longer feet need the upper body further
+// forward for balance): they set the two dofs' ranges and home, nothing else, and the export's
+// comment names them so that the file can be imported the same way.
+TEST(Export, UpperBodyRangesAreImportOptionsAndTheExportNamesThem) {
+  const wbm_test::ShippedModel g1 = wbm_test::shipped_model("g1_29dof");
+  wbm::UrdfImportOptions options = g1.options;
+  options.upper_body_x_range = {-0.05, 0.3};
+  options.upper_body_y_range = {-0.1, 0.12};
+  const Model plain = g1.load(), shifted = wbm::load_urdf(g1.path, options);
+  const wbm::VirtualDofs& v = shifted.virtual_dofs();
+  ASSERT_EQ(shifted.num_dofs(), plain.num_dofs());
+  for (int i = 0; i < shifted.num_dofs(); ++i) {
+    const wbm::Dof &a = shifted.dof(i), &b = plain.dof(i);
+    if (i == v.ub_x || i == v.ub_y) continue;
+    EXPECT_EQ(a.lower, b.lower) << a.name;
+    EXPECT_EQ(a.upper, b.upper) << a.name;
+    EXPECT_EQ(shifted.home()[i], plain.home()[i]) << a.name;
+  }
+  EXPECT_EQ(plain.dof(v.ub_x).lower, -0.02);
+  EXPECT_EQ(plain.dof(v.ub_x).upper, 0.14);
+  EXPECT_EQ(shifted.dof(v.ub_x).lower, -0.05);
+  EXPECT_EQ(shifted.dof(v.ub_x).upper, 0.3);
+  EXPECT_EQ(shifted.dof(v.ub_y).lower, -0.1);
+  EXPECT_EQ(shifted.dof(v.ub_y).upper, 0.12);
+  EXPECT_DOUBLE_EQ(shifted.home()[v.ub_x], 0.125);  // home in the middle of the range
+  EXPECT_DOUBLE_EQ(shifted.home()[v.ub_y], 0.01);
+  // The export of the default ranges names none; of others, both, as options and as flags.
+  EXPECT_EQ(wbm::export_urdf(plain).find("upper_body_"), std::string::npos);
+  const std::string xml = wbm::export_urdf(shifted);
+  EXPECT_NE(xml.find(", upper_body_x_range -0.05 0.3, upper_body_y_range -0.1 0.12"), std::string::npos) << xml.substr(0, 400);
+  EXPECT_NE(xml.find(" --upper-body-x-range -0.05,0.3 --upper-body-y-range -0.1,0.12"), std::string::npos)
+      << xml.substr(0, 400);
+  wbm::UrdfImportOptions again;
+  again.root = shifted.body(v.upper_body).name;
+  again.root_height = shifted.dof(v.ub_z).upper;
+  again.upper_body_x_range = options.upper_body_x_range;
+  again.upper_body_y_range = options.upper_body_y_range;
+  const Model back = wbm::parse_urdf(xml, again, "g1_shifted_export.urdf");
+  for (const int i : {v.ub_x, v.ub_y}) {
+    EXPECT_EQ(back.dof(i).lower, shifted.dof(i).lower);
+    EXPECT_EQ(back.dof(i).upper, shifted.dof(i).upper);
+  }
+}
+
 class ExportRoundTrip : public testing::TestWithParam<ShippedModel> {};
 
 TEST_P(ExportRoundTrip, SameFramePosesAfterExportAndImport) {

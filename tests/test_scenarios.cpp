@@ -170,6 +170,60 @@ TEST(Balance, UrdfModelWithFeetMeasuredFromItsAnkles) {
   for (const char* hand : {"l_hand", "r_hand"}) EXPECT_LT(run->error.back()[run->element(hand)], 1e-3) << hand;
 }
 
+// An upper-body shift dof at its position limit that the law drives further out is flagged
+// (kShiftAtLimit), not one the law drives back in or one inside its range.
+TEST(Balance, AShiftDrivenAgainstItsLimitIsFlagged) {
+  const Model model = make_paper_model();
+  const int ub_x = model.virtual_dofs().ub_x, ub_y = model.virtual_dofs().ub_y;
+  Controller c(model);
+  c.add_task(std::make_unique<PositionTask>(model, "l_hand", "l_hand_ref"));
+  BalanceModule balance(model, std::make_unique<CenterOfMassCentering>(4.0, 0.0));
+  auto flags_at = [&](double x, double y, const Vector2& heel) {
+    VectorXd q = model.home();
+    q[ub_x] = x;
+    q[ub_y] = y;
+    c.reset(q);
+    Command cmd = c.make_command();
+    cmd.external_velocity = VectorXd::Zero(model.num_dofs());
+    return balance.update(c.data(), SupportPolygon::standing(heel, 0.0, FootGeometry{}), 0.001, cmd);
+  };
+  const Dof &dx = model.dof(ub_x), &dy = model.dof(ub_y);
+  const Vector2 ahead(1.0, 0.0), behind(-1.0, 0.0), left(0.0, 1.0);
+  EXPECT_TRUE(flags_at(dx.upper, 0.0, ahead) & kShiftAtLimit);
+  EXPECT_FALSE(flags_at(dx.upper, 0.0, behind) & kShiftAtLimit);
+  EXPECT_TRUE(flags_at(dx.lower, 0.0, behind) & kShiftAtLimit);
+  EXPECT_FALSE(flags_at(dx.center(), 0.0, ahead) & kShiftAtLimit);
+  EXPECT_TRUE(flags_at(dx.center(), dy.upper, left) & kShiftAtLimit);
+  EXPECT_FALSE(flags_at(dx.center(), dy.lower, left) & kShiftAtLimit);
+}
+
+// Feet longer than the default upper-body range allows for (TOCABI's, 0.30 m, needed 0.21 m
+// where the range ends at 0.14 m): the run reports the shift held at its limit and the shift
+// the centre of mass needed; with the range widened to that, the centre of mass is centred.
+TEST(Balance, ARangeTooSmallForTheFeetIsReportedAndWideningItCentresTheCom) {
+  Scenario s = shipped("g1_reach_with_balance");
+  s.feet.geometry.length = 0.5;
+  const auto short_range = run_scenario(s);
+  const nlohmann::json held = summarize(*short_range)["balance"]["shift_at_limit"];
+  ASSERT_EQ(held.size(), 1u) << held.dump();
+  EXPECT_EQ(held[0]["dof"], "upper_body_x");
+  EXPECT_EQ(held[0]["limit"].get<double>(), 0.14);
+  const double needed = held[0]["needed"].get<double>();
+  EXPECT_GT(needed, 0.2);
+  EXPECT_GT(held[0]["cycles"].get<int>(), short_range->num_cycles() / 2);
+  s.urdf_options.upper_body_x_range = {-0.02, needed + 0.05};
+  const auto wide_range = run_scenario(s);
+  EXPECT_TRUE(summarize(*wide_range)["balance"]["shift_at_limit"].empty());
+  const VectorXd& end = wide_range->balance.back();  // com x, y, centroid x, y, ...
+  std::cout << "feet 0.5 m long: com " << (short_range->balance.back().head<2>() - short_range->balance.back().segment<2>(2)).norm()
+            << " m from the centroid with the default range, needed " << needed << " m of shift; "
+            << (end.head<2>() - end.segment<2>(2)).norm() << " m with the range widened\n";
+  EXPECT_LT((end.head<2>() - end.segment<2>(2)).norm(), 0.01);
+  EXPECT_GT((short_range->balance.back().head<2>() - short_range->balance.back().segment<2>(2)).norm(), 0.05);
+  // The shipped scenario's own feet fit the default range.
+  EXPECT_TRUE(summarize(*run_scenario(shipped("g1_reach_with_balance")))["balance"]["shift_at_limit"].empty());
+}
+
 TEST(Balance, ZeroAreaSupportAndABadLawHaveDefinedResults) {
   const Model model = make_paper_model();
   Controller c(model);
@@ -921,6 +975,14 @@ TEST(Scenarios, BadFilesNameTheLineAndField) {
        "bad.yaml:2: robot.builtin: robot.urdf names the robot; give one of the two"},
       {"name: x\nrobot:\n  urdf: g1.urdf\n  root_rpy: [0, 3.1]\ntasks: [{name: a, type: position, frame: f}]\n",
        "bad.yaml:4: robot.root_rpy: expected [roll, pitch, yaw] in rad"},
+      {"name: x\nrobot:\n  builtin: paper\n  upper_body_x_range: [0, 0.3]\ntasks: [{name: a, type: position, frame: f}]\n",
+       "bad.yaml:4: robot.upper_body_x_range: an option of the URDF import; the built-in paper model takes none"},
+      {"name: x\nrobot:\n  urdf: g1.urdf\n  upper_body_x_range: [0.3]\ntasks: [{name: a, type: position, frame: f}]\n",
+       "bad.yaml:4: robot.upper_body_x_range: expected [lower, upper] in m, finite, lower < upper"},
+      {"name: x\nrobot:\n  urdf: g1.urdf\n  upper_body_y_range: [0.1, -0.1]\ntasks: [{name: a, type: position, frame: f}]\n",
+       "bad.yaml:4: robot.upper_body_y_range: expected [lower, upper] in m, finite, lower < upper"},
+      {"name: x\nrobot:\n  urdf: g1.urdf\n  upper_body_y_range: [-1e7, 0.1]\ntasks: [{name: a, type: position, frame: f}]\n",
+       "bad.yaml:4: robot.upper_body_y_range: expected [lower, upper] in m, finite, lower < upper"},
       {"name: x\ncriterion: {type: cubic, band: 1.5}\ntasks: [{name: a, type: position, frame: f}]\n", "bad.yaml:2: criterion.band: expected a number in [0, 1)"},
       // Sizes that overflowed the cycle count or hung the writer.
       {"name: x\nduration: 1e9\ntasks: [{name: a, type: position, frame: f}]\n",

@@ -1,6 +1,7 @@
 // Catalogue of malformed URDF files (tests/data/malformed/): each must raise a ParseError
 // whose message names the file, the line and the problem, and the CLI must exit non-zero
 // with that message on stderr.
+#include <array>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -269,6 +270,28 @@ TEST(UrdfErrors, RootHeightGivenMustBeFiniteAndPositive) {
       EXPECT_NE(std::string(e.what()).find(": the root height (root_height, --root-height) must be finite and > 0 m, got"),
                 std::string::npos)
           << e.what();
+    }
+  }
+}
+
+TEST(UrdfErrors, UpperBodyRangesMustBeFiniteWithLowerBelowUpper) {
+  const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
+  const std::string valid = wbm_test::source_path("models/third_party/nao/nao.urdf");
+  for (const std::array<double, 2> range : {std::array<double, 2>{0.1, 0.1}, {0.2, -0.1}, {nan, 0.1}, {-0.1, inf},
+                                            {-2e6, 0.1}}) {
+    for (const bool sideways : {false, true}) {
+      wbm::UrdfImportOptions options;
+      (sideways ? options.upper_body_y_range : options.upper_body_x_range) = range;
+      const std::string expected = sideways ? "nao.urdf: the upper body's shift range (upper_body_y_range, "
+                                              "--upper-body-y-range) must be finite with lower < upper [m], got "
+                                            : "nao.urdf: the upper body's shift range (upper_body_x_range, "
+                                              "--upper-body-x-range) must be finite with lower < upper [m], got ";
+      try {
+        wbm::load_urdf(valid, options);
+        ADD_FAILURE() << "range " << range[0] << ", " << range[1] << " accepted";
+      } catch (const wbm::ParseError& e) {
+        EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+      }
     }
   }
 }

@@ -81,6 +81,10 @@ enum BalanceFlag : std::uint32_t {
   kInvalidLawOutput = 1u << 1, ///< The law returned NaN/inf: no shift this cycle.
   kComOutside = 1u << 2,       ///< The com projection is outside the support polygon.
   kShiftSaturated = 1u << 3,   ///< Speed limit of the upper-body dofs reached.
+  /// The law drives an upper-body x/y dof that stands at its position limit further out: the
+  /// shift cannot follow (the centre of mass stays off the law's target); the dof's range
+  /// (UrdfImportOptions::upper_body_x_range, _y_range) is too small for these feet.
+  kShiftAtLimit = 1u << 4,
 };
 
 /// Glues a BalanceLaw to a controller's command: freezes the upper-body x/y dofs and

@@ -212,6 +212,11 @@ std::array<Dof, 9> default_virtual_dofs(double height);
 int add_virtual_base(ModelBuilder& builder, double height, const std::string& upper_body_name,
                      const Inertial& heel, const Inertial& upper_body, const Matrix3& R_UR = Matrix3::Identity());
 
+/// Same with the nine dofs given (e.g. default_virtual_dofs() with other upper-body ranges),
+/// in the order heel x, y, yaw, upper body x, y, z, roll, pitch, yaw.
+int add_virtual_base(ModelBuilder& builder, const std::array<Dof, 9>& dofs, const std::string& upper_body_name,
+                     const Inertial& heel, const Inertial& upper_body, const Matrix3& R_UR = Matrix3::Identity());
+
 /// `q` (nq) with the virtual dofs upright: the heel at the world origin facing along x, the
 /// upper body straight above it at the top of its height range (the root height given to
 /// the URDF import), neither shifted nor tilted; every other entry unchanged. This is the

@@ -3,6 +3,7 @@
 /// URDF import for any humanoid: the paper's virtual heel and upper-body dofs are put
 /// between the world and the chosen body root; leg subtrees are locked or dropped.
 
+#include <array>
 #include <limits>
 #include <string>
 #include <vector>
@@ -39,6 +40,17 @@ struct UrdfImportOptions {
   /// speed limit are an error unless this is set; then revolute joints get [-pi, pi] and
   /// 2 rad/s, prismatic joints [-1, 1] m and 0.5 m/s.
   bool default_limits = false;
+  /// Range [lower, upper] of the upper body's forward shift over the heel frame (upper_body_x)
+  /// [m]; the heel frame's origin lies on the floor at the feet's back edge. It stands for how
+  /// far the legs carry the upper body, and bounds where the balance module (section V) can
+  /// move it: the default (-0.02, 0.14), home in its middle, suits feet about 0.22 m long;
+  /// with longer feet the centre of mass may need the upper body further forward
+  /// (BalanceFlag kShiftAtLimit, reported by `wbm run`). Values outside a dof's range are
+  /// clamped, so on a fixed base (upright_base_configuration) a range without 0 moves the
+  /// root off the base's origin.
+  std::array<double, 2> upper_body_x_range = {-0.02, 0.14};
+  /// Same for the sideways shift (upper_body_y) [m].
+  std::array<double, 2> upper_body_y_range = {-0.08, 0.08};
 };
 
 /// Loads a URDF file.
@@ -46,7 +58,8 @@ struct UrdfImportOptions {
 ///   unknown root/leg links, missing parents, kinematic loops, zero axes or axes more than
 ///   1 % from unit length (others are normalised), floating joints inside the tree, names
 ///   of the virtual dofs/bodies, negative masses, lower limit above upper, missing limits,
-///   unexpanded xacro; and for kDrop without legs or a given root height that is not > 0.
+///   unexpanded xacro; for kDrop without legs, a given root height that is not > 0 and an
+///   upper-body range that is not finite with lower < upper.
 Model load_urdf(const std::string& path, const UrdfImportOptions& options = {});
 
 /// Same from a string; `source` names it in error messages.
