@@ -535,9 +535,15 @@ json summarize(const ScenarioRun& run) {
       const ScenarioRun::ShiftAtLimit& a = run.shift_at_limit[k];
       if (a.cycles > 0) {
         const std::string dof = k == 0 ? "upper_body_x" : "upper_body_y";
+        // A range that reaches the needed shift with a centimetre to spare, on whole centimetres.
+        const Dof& d = run.model->dof(run.model->dof_index(dof));
+        const bool upper = a.limit == d.upper;
+        const double reach = upper ? std::ceil((a.needed + 0.01) * 100.0) / 100.0 : std::floor((a.needed - 0.01) * 100.0) / 100.0;
+        std::ostringstream range;
+        range << "[" << (upper ? d.lower : reach) << ", " << (upper ? reach : d.upper) << "]";
         const std::string remedy = run.scenario.urdf.empty()
                                        ? "the built-in paper model's range is fixed"
-                                       : "widen robot." + dof + "_range for these feet";
+                                       : "widen robot." + dof + "_range for these feet, e.g. to " + range.str();
         at_limit.push_back({{"dof", dof}, {"cycles", a.cycles}, {"limit", a.limit}, {"needed", a.needed},
                             {"remedy", remedy}});
       }

@@ -211,7 +211,10 @@ TEST(Balance, ARangeTooSmallForTheFeetIsReportedAndWideningItCentresTheCom) {
   const double needed = held[0]["needed"].get<double>();
   EXPECT_GT(needed, 0.2);
   EXPECT_GT(held[0]["cycles"].get<int>(), short_range->num_cycles() / 2);
-  s.urdf_options.upper_body_x_range = {-0.02, needed + 0.05};
+  // The remedy suggests a range that reaches the needed shift with a centimetre to spare; it works.
+  EXPECT_EQ(held[0]["remedy"], "widen robot.upper_body_x_range for these feet, e.g. to [-0.02, 0.25]");
+  EXPECT_GT(0.25, needed + 0.01);
+  s.urdf_options.upper_body_x_range = {-0.02, 0.25};
   const auto wide_range = run_scenario(s);
   EXPECT_TRUE(summarize(*wide_range)["balance"]["shift_at_limit"].empty());
   const VectorXd& end = wide_range->balance.back();  // com x, y, centroid x, y, ...
