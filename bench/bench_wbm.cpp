@@ -29,6 +29,7 @@
 // Own flags (before Google Benchmark's): --wbm_urdf=FILE --wbm_root=LINK --wbm_legs=A,B
 // --wbm_hands=LEFT,RIGHT [--wbm_head=FRAME] [--wbm_com] [--wbm_posture=DOF,DOF,...]
 // [--wbm_default_limits] [--wbm_drop_legs] [--wbm_root_height=H] [--wbm_root_rpy=R,P,Y] [--wbm_fixed_base]
+// [--wbm_upper_body_x_range=LO,HI] [--wbm_upper_body_y_range=LO,HI]
 // [--wbm_id=NAME] register a fixture "<NAME>" (default "custom") on that model;
 // --wbm_loop=SECONDS [--wbm_rate=HZ] [--wbm_priority=P] [--wbm_spin] run the periodic
 // real-time loop (periodic_loop.hpp) on that fixture, or on paper_r12, g1_r20 and romeo_r12,
@@ -43,6 +44,7 @@
 #include <map>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <benchmark/benchmark.h>
@@ -173,7 +175,8 @@ bool parse_own_flags(int& argc, char** argv, FixtureSpec& custom, LoopRequest& l
   if (!parse_loop_flags(flags, loop, error)) return false;
   if (flags.empty()) return false;
   static const char* known[] = {"urdf",      "root",        "legs",        "hands", "head", "com", "posture",
-                                "default_limits", "drop_legs", "root_height", "root_rpy", "fixed_base", "id"};
+                                "default_limits", "drop_legs", "root_height", "root_rpy", "upper_body_x_range",
+                                "upper_body_y_range", "fixed_base", "id"};
   for (const auto& flag : flags)
     if (std::none_of(std::begin(known), std::end(known), [&](const char* k) { return flag.first == k; })) {
       error = "unknown flag --wbm_" + flag.first;
@@ -200,6 +203,20 @@ bool parse_own_flags(int& argc, char** argv, FixtureSpec& custom, LoopRequest& l
     for (int k = 0; k < 3; ++k)
       if (!parse_number("--root-rpy (--wbm_root_rpy)", angles[k], "an angle in radians", options.root_rpy[k], error))
         return false;
+  }
+  for (auto [key, range] : {std::pair{std::string("upper_body_x_range"), &options.upper_body_x_range},
+                            std::pair{std::string("upper_body_y_range"), &options.upper_body_y_range}}) {
+    if (!flags.count(key)) continue;
+    std::string flag = key;
+    std::replace(flag.begin(), flag.end(), '_', '-');
+    const std::string what = "--" + flag + " (--wbm_" + key + ")";
+    const std::vector<std::string> bounds = split(flags[key], ',');
+    if (bounds.size() != 2) {
+      error = what + " '" + flags[key] + "': LOWER,UPPER in metres expected";
+      return false;
+    }
+    for (int k = 0; k < 2; ++k)
+      if (!parse_number(what, bounds[k], "a number of metres", (*range)[k], error)) return false;
   }
   const std::vector<std::string> hands = split(flags["hands"], ',');
   if (hands.size() != 2) {

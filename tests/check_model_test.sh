@@ -13,8 +13,9 @@ fail() { echo "check_model_test: $*" >&2; exit 1; }
 
 # 1. The whole set on the copied robot passes, every group ran, the summary counts them.
 rc=0
+# (With an upper-body shift range of its own, as `wbm model export` names it for such a model.)
 scripts/check_model.sh "$work/my robot/nao.urdf" --hands l_gripper,r_gripper --head gaze --legs LPelvis,RPelvis \
-  --build-dir "$build_dir" >"$work/out.txt" 2>"$work/err.txt" || rc=$?
+  --upper-body-x-range -0.04,0.1 --build-dir "$build_dir" >"$work/out.txt" 2>"$work/err.txt" || rc=$?
 [[ $rc -eq 0 ]] || { cat "$work/out.txt" "$work/err.txt"; fail "exit $rc"; }
 for name in Kinematics.JacobiansMatchFiniteDifferences/user Kinematics.JacobianTimesVelocityMatchesDirectionalDerivative/user \
   KdlComparison.PosesAndJacobiansMatchKdl/user KdlWholeTree.ExportWithVirtualDofsMatchesKdl/user \
@@ -46,6 +47,14 @@ set -e
 grep -q "^error: --hands (WBM_TEST_HANDS): .*no frame named 'l_griper' (did you mean 'l_gripper'?)" "$work/err2.txt" ||
   { cat "$work/err2.txt"; fail "misspelt hand: message"; }
 [[ ! -s "$work/out2.txt" ]] || { cat "$work/out2.txt"; fail "misspelt hand: output on stdout"; }
+# ... and a range of one number.
+set +e
+scripts/check_model.sh "$work/my robot/nao.urdf" --hands l_gripper,r_gripper --upper-body-x-range 0.1 \
+  --build-dir "$build_dir" >/dev/null 2>"$work/err6.txt"
+rc=$?
+set -e
+[[ $rc -eq 2 ]] && grep -q "^error: --upper-body-x-range (WBM_TEST_UPPER_BODY_X_RANGE): expected LOWER,UPPER in metres" \
+  "$work/err6.txt" || { cat "$work/err6.txt"; fail "range of one number: exit $rc"; }
 # ... and a hand that no joint moves (a frame on the base).
 set +e
 scripts/check_model.sh "$work/massless.urdf" --hands left_tool,world --build-dir "$build_dir" >/dev/null 2>"$work/err3.txt"

@@ -8,6 +8,7 @@
 #include <set>
 #include <sstream>
 #include <stdexcept>
+#include <tuple>
 
 #include "wbm/paper_model.hpp"
 
@@ -57,7 +58,8 @@ std::string join(const std::vector<std::string>& names) {
 
 /// The user's robot (scripts/check_model.sh): WBM_TEST_URDF=PATH, WBM_TEST_HANDS=LEFT,RIGHT
 /// (frames), optional WBM_TEST_HEAD (frame), WBM_TEST_LEGS=A,B, WBM_TEST_ROOT (links),
-/// WBM_TEST_ROOT_HEIGHT (m), WBM_TEST_ROOT_RPY=R,P,Y (rad), WBM_TEST_DEFAULT_LIMITS=1, WBM_TEST_DROP_LEGS=1,
+/// WBM_TEST_ROOT_HEIGHT (m), WBM_TEST_ROOT_RPY=R,P,Y (rad), WBM_TEST_UPPER_BODY_X_RANGE=LO,HI and
+/// WBM_TEST_UPPER_BODY_Y_RANGE=LO,HI (m), WBM_TEST_DEFAULT_LIMITS=1, WBM_TEST_DROP_LEGS=1,
 /// WBM_TEST_FIXED_BASE=1. Its id, in test names, is "user".
 ShippedModel model_from_environment() {
   ShippedModel m;
@@ -92,6 +94,20 @@ ShippedModel model_from_environment() {
       m.options.root_rpy[k] = std::strtod(rpy[k].c_str(), &end);
       if (*end != '\0' || !std::isfinite(m.options.root_rpy[k]))
         environment_error("--root-rpy (WBM_TEST_ROOT_RPY): '" + rpy[k] + "' is not an angle in radians");
+    }
+  }
+  // The upper body's shift ranges: LOWER,UPPER in metres (their order is load_urdf's check).
+  for (const auto& [flag, variable, range] :
+       {std::tuple{"--upper-body-x-range", "WBM_TEST_UPPER_BODY_X_RANGE", &m.options.upper_body_x_range},
+        std::tuple{"--upper-body-y-range", "WBM_TEST_UPPER_BODY_Y_RANGE", &m.options.upper_body_y_range}}) {
+    const std::vector<std::string> bounds = split_names(flag, variable);
+    if (bounds.empty()) continue;
+    const std::string what = std::string(flag) + " (" + variable + "): ";
+    if (bounds.size() != 2) environment_error(what + "expected LOWER,UPPER in metres");
+    for (int k = 0; k < 2; ++k) {
+      char* end = nullptr;
+      (*range)[k] = std::strtod(bounds[k].c_str(), &end);
+      if (*end != '\0' || !std::isfinite((*range)[k])) environment_error(what + "'" + bounds[k] + "' is not a number of metres");
     }
   }
   m.options.default_limits = std::getenv("WBM_TEST_DEFAULT_LIMITS") != nullptr;
