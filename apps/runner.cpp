@@ -147,25 +147,23 @@ void progress_bar(double t, double duration, bool done) {
 }
 
 /// Records a cycle in which balance drove an upper-body shift dof at its limit further out
-/// (kShiftAtLimit): which dof, its limit, and the shift the centre of mass would have needed,
-/// the dof's value plus the centre of mass's offset from the target's centroid along the dof's
-/// axis (the heel frame's x or y; the whole upper body moves with the shift).
-void note_shift_at_limit(const Model& model, const Controller& c, const SupportPolygon& target, const Command& cmd,
-                         ScenarioRun& run) {
+/// (BalanceModule::last_shift_at_limit): which dof, its limit, and the shift the centre of
+/// mass would have needed, the dof's value plus the centre of mass's offset from the target's
+/// centroid along the dof's axis (the heel frame's x or y; the whole upper body moves with
+/// the shift).
+void note_shift_at_limit(const Model& model, const Controller& c, const SupportPolygon& target,
+                         const std::array<int, 2>& side, ScenarioRun& run) {
   const VirtualDofs& v = model.virtual_dofs();
   const Vector2 com = center_of_mass_position(model, c.data()).head<2>();
   const Matrix3& R_WH = c.data().X_WB[v.heel_body].R;
   const Vector2 offset_H = R_WH.topLeftCorner<2, 2>().transpose() * (target.centroid() - com);
   const std::array<int, 2> dofs = {v.ub_x, v.ub_y};
   for (int k = 0; k < 2; ++k) {
-    const Dof& d = model.dof(dofs[k]);
-    const double q = c.q()[dofs[k]], velocity = cmd.external_velocity[dofs[k]];
-    const bool at_upper = velocity > 0.0 && q >= d.upper - 1e-6, at_lower = velocity < 0.0 && q <= d.lower + 1e-6;
-    if (!at_upper && !at_lower) continue;
+    if (side[k] == 0) continue;
     ScenarioRun::ShiftAtLimit& s = run.shift_at_limit[k];
-    const double needed = q + offset_H[k];
-    if (s.cycles == 0 || (at_upper ? needed > s.needed : needed < s.needed)) s.needed = needed;
-    s.limit = at_upper ? d.upper : d.lower;
+    const double needed = c.q()[dofs[k]] + offset_H[k];
+    if (s.cycles == 0 || (side[k] > 0 ? needed > s.needed : needed < s.needed)) s.needed = needed;
+    s.side = side[k];
     ++s.cycles;
   }
 }
@@ -395,7 +393,7 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
       const SupportPolygon& target = walking && walking->walking() ? walking->planned_support(c.q()) : support;
       const std::uint32_t balance_flags = balance->update(c.data(), target, s.dt, cmd);
       ++run->balanced_cycles;
-      if (balance_flags & kShiftAtLimit) note_shift_at_limit(model, c, target, cmd, *run);
+      if (balance_flags & kShiftAtLimit) note_shift_at_limit(model, c, target, balance->last_shift_at_limit(), *run);
     }
     const auto t0 = std::chrono::steady_clock::now();
     const ControllerStatus st = c.update(cmd, s.dt);
@@ -537,14 +535,14 @@ json summarize(const ScenarioRun& run) {
         const std::string dof = k == 0 ? "upper_body_x" : "upper_body_y";
         // A range that reaches the needed shift with a centimetre to spare, on whole centimetres.
         const Dof& d = run.model->dof(run.model->dof_index(dof));
-        const bool upper = a.limit == d.upper;
+        const bool upper = a.side > 0;
         const double reach = upper ? std::ceil((a.needed + 0.01) * 100.0) / 100.0 : std::floor((a.needed - 0.01) * 100.0) / 100.0;
         std::ostringstream range;
         range << "[" << (upper ? d.lower : reach) << ", " << (upper ? reach : d.upper) << "]";
         const std::string remedy = run.scenario.urdf.empty()
                                        ? "the built-in paper model's range is fixed"
                                        : "widen robot." + dof + "_range for these feet, e.g. to " + range.str();
-        at_limit.push_back({{"dof", dof}, {"cycles", a.cycles}, {"limit", a.limit}, {"needed", a.needed},
+        at_limit.push_back({{"dof", dof}, {"cycles", a.cycles}, {"limit", upper ? d.upper : d.lower}, {"needed", a.needed},
                             {"remedy", remedy}});
       }
     }

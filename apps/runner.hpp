@@ -37,12 +37,13 @@ struct ScenarioRun {
   std::vector<SupportPolygon> support;   ///< per cycle when balance or walking runs (empty otherwise)
   bool balance_on_at_end = false;        ///< balance was switched on in the last cycle (scenario or its events)
   /// Where balance drove an upper-body shift dof (x, then y) at its position limit further out
-  /// (BalanceFlag kShiftAtLimit): the cycles, the limit, and the largest shift the centre of
-  /// mass would have needed to reach the law's target (the shift plus the centre of mass's
-  /// offset from the support's centroid along the dof) [m].
+  /// (BalanceFlag kShiftAtLimit): the cycles, the limit (+1 upper, -1 lower; the last such
+  /// cycle's), and the farthest shift the centre of mass would have needed to reach the law's
+  /// target (the shift plus the centre of mass's offset from the support's centroid along
+  /// the dof) [m].
   struct ShiftAtLimit {
-    int cycles = 0;
-    double limit = 0.0, needed = 0.0;
+    int cycles = 0, side = 0;
+    double needed = 0.0;
   };
   std::array<ShiftAtLimit, 2> shift_at_limit;
   int balanced_cycles = 0;  ///< cycles with balance on

@@ -135,9 +135,10 @@ std::uint32_t BalanceModule::update(const Data& data, const SupportPolygon& supp
   auto pushes_out = [&](int dof, double v) {
     const Dof& d = model_.dof(dof);
     const double q = data.q[dof];
-    return (v > 0.0 && q >= d.upper - 1e-6) || (v < 0.0 && q <= d.lower + 1e-6);
+    return v > 0.0 && q >= d.upper - 1e-6 ? 1 : v < 0.0 && q <= d.lower + 1e-6 ? -1 : 0;
   };
-  if (pushes_out(ub_x_, v_H.x()) || pushes_out(ub_y_, v_H.y())) flags |= kShiftAtLimit;
+  last_shift_at_limit_ = {pushes_out(ub_x_, v_H.x()), pushes_out(ub_y_, v_H.y())};
+  if (last_shift_at_limit_[0] != 0 || last_shift_at_limit_[1] != 0) flags |= kShiftAtLimit;
   command.external_velocity[ub_x_] = v_H.x();
   command.external_velocity[ub_y_] = v_H.y();
   return flags;

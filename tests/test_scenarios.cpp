@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -189,11 +190,16 @@ TEST(Balance, AShiftDrivenAgainstItsLimitIsFlagged) {
   };
   const Dof &dx = model.dof(ub_x), &dy = model.dof(ub_y);
   const Vector2 ahead(1.0, 0.0), behind(-1.0, 0.0), left(0.0, 1.0);
+  using Sides = std::array<int, 2>;  // which limit each dof (x, y) is driven against
   EXPECT_TRUE(flags_at(dx.upper, 0.0, ahead) & kShiftAtLimit);
+  EXPECT_EQ(balance.last_shift_at_limit(), (Sides{1, 0}));
   EXPECT_FALSE(flags_at(dx.upper, 0.0, behind) & kShiftAtLimit);
+  EXPECT_EQ(balance.last_shift_at_limit(), (Sides{0, 0}));
   EXPECT_TRUE(flags_at(dx.lower, 0.0, behind) & kShiftAtLimit);
+  EXPECT_EQ(balance.last_shift_at_limit(), (Sides{-1, 0}));
   EXPECT_FALSE(flags_at(dx.center(), 0.0, ahead) & kShiftAtLimit);
   EXPECT_TRUE(flags_at(dx.center(), dy.upper, left) & kShiftAtLimit);
+  EXPECT_EQ(balance.last_shift_at_limit(), (Sides{0, 1}));
   EXPECT_FALSE(flags_at(dx.center(), dy.lower, left) & kShiftAtLimit);
 }
 

@@ -5,6 +5,7 @@
 /// whole-body solver only through the constraints b_C (upper-body x/y frozen) and the
 /// external velocity that becomes x_bal (eqs. 19-21).
 
+#include <array>
 #include <memory>
 #include <vector>
 
@@ -100,6 +101,9 @@ class BalanceModule {
   void disable(Command& command) const;
   const FootGeometry& feet() const { return feet_; }
   double last_margin() const { return last_margin_; }
+  /// Per upper-body dof (x, then y): +1 where the last update drove it against its upper
+  /// limit, -1 against its lower limit, else 0 (kShiftAtLimit).
+  const std::array<int, 2>& last_shift_at_limit() const { return last_shift_at_limit_; }
 
  private:
   const Model& model_;
@@ -107,6 +111,7 @@ class BalanceModule {
   FootGeometry feet_;
   int ub_x_, ub_y_, heel_body_;
   double last_margin_ = 0.0;
+  std::array<int, 2> last_shift_at_limit_ = {0, 0};
 };
 
 }  // namespace wbm
