@@ -258,6 +258,15 @@ std::string render_report(const ScenarioRun& run) {
   table.push_back({"min distance to a joint limit",
                    std::to_string(summary["min_distance_to_limit"]["value"].get<double>()) + " (" +
                        summary["min_distance_to_limit"]["dof"].get<std::string>() + ")"});
+  if (summary.contains("balance")) {
+    const json& b = summary["balance"];
+    char text[160];
+    std::snprintf(text, sizeof text, "%.1f / %.1f cm (negative: outside)%s", b["min_com_margin"].get<double>() * 100.0,
+                  b["final_com_margin"].get<double>() * 100.0, b["on_at_end"].get<bool>() ? "" : "; balance off at the end");
+    table.push_back({"centre of mass inside the feet, least / at the end", text});
+    for (const json& a : b["shift_at_limit"])
+      table.push_back({"balance: upper-body shift at its limit", describe_shift_at_limit(a, b["balanced_cycles"].get<int>())});
+  }
   if (summary.contains("cycle_time_us"))
     table.push_back({"cycle time median / p99 [us]", std::to_string(summary["cycle_time_us"]["median"].get<double>()) + " / " +
                                                          std::to_string(summary["cycle_time_us"]["p99"].get<double>())});

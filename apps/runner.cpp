@@ -553,6 +553,17 @@ json summarize(const ScenarioRun& run) {
   return out;
 }
 
+std::string describe_shift_at_limit(const json& entry, int balanced_cycles) {
+  const int cycles = entry["cycles"].get<int>();
+  std::ostringstream line;
+  line << std::fixed << std::setprecision(1) << entry["dof"].get<std::string>() << " held at its limit "
+       << entry["limit"].get<double>() * 100.0 << " cm in " << cycles << " of " << balanced_cycles
+       << " balanced cycles (" << 100.0 * cycles / std::max(balanced_cycles, 1)
+       << " %); the centre of mass would have needed " << entry["needed"].get<double>() * 100.0
+       << " cm: " << entry["remedy"].get<std::string>();
+  return line.str();
+}
+
 namespace {
 
 /// A CSV header field: quoted (RFC 4180, quotes doubled) when the name holds a comma or a

@@ -299,17 +299,8 @@ int run_scenarios(const std::vector<std::string>& files, const std::string& out,
                                   : "OUTSIDE the feet at the end")
                 << (on ? "\n" : " (balance off)\n");
       // The shift held at a limit of its range: name the range to widen and by how much.
-      for (const json& a : summary["balance"]["shift_at_limit"]) {
-        const std::string dof = a["dof"].get<std::string>();
-        const double limit = a["limit"].get<double>(), needed = a["needed"].get<double>();
-        const int cycles = a["cycles"].get<int>(), balanced = summary["balance"]["balanced_cycles"].get<int>();
-        std::ostringstream line;
-        line << std::fixed << std::setprecision(1) << "  balance: " << dof << " held at its limit " << limit * 100.0
-             << " cm in " << cycles << " of " << balanced << " balanced cycles (" << 100.0 * cycles / std::max(balanced, 1)
-             << " %); the centre of mass would have needed " << needed * 100.0 << " cm: "
-             << a["remedy"].get<std::string>() << "\n";
-        std::cerr << line.str();
-      }
+      for (const json& a : summary["balance"]["shift_at_limit"])
+        std::cerr << "  balance: " << wbm::describe_shift_at_limit(a, summary["balance"]["balanced_cycles"].get<int>()) << "\n";
     }
     if (summary.contains("walking")) {
       const json& w = summary["walking"];

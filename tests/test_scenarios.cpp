@@ -30,6 +30,16 @@ using Eigen::VectorXd;
 
 Scenario shipped(const std::string& name) { return load_scenario(wbm_test::source_path("scenarios/" + name + ".yaml")); }
 
+/// The report's data (the JSON written into the page's template).
+nlohmann::json report_data(const ScenarioRun& run) {
+  const std::string page = render_report(run);
+  const std::string tmpl = report_template();
+  const size_t hole = tmpl.find("__WBM_REPORT_DATA__");
+  const std::string after = tmpl.substr(hole + 19, 40);
+  const size_t begin = page.find(tmpl.substr(hole - 40, 40)) + 40;
+  return nlohmann::json::parse(page.substr(begin, page.find(after, begin) - begin));
+}
+
 double deg(double rad) { return rad * 180.0 / M_PI; }
 
 /// Largest |q_ddot| over the run (from the recorded velocities; the robot starts at rest).
@@ -229,6 +239,20 @@ TEST(Balance, ARangeTooSmallForTheFeetIsReportedAndWideningItCentresTheCom) {
             << (end.head<2>() - end.segment<2>(2)).norm() << " m with the range widened\n";
   EXPECT_LT((end.head<2>() - end.segment<2>(2)).norm(), 0.01);
   EXPECT_GT((short_range->balance.back().head<2>() - short_range->balance.back().segment<2>(2)).norm(), 0.05);
+  // The report's summary table says it too, beside the centre of mass's margins.
+  auto rows_named = [](const ScenarioRun& run, const std::string& key) {
+    std::vector<std::string> texts;
+    const nlohmann::json report = report_data(run);
+    for (const auto& row : report["summary"])
+      if (row[0] == key) texts.push_back(row[1].get<std::string>());
+    return texts;
+  };
+  const std::vector<std::string> said = rows_named(*short_range, "balance: upper-body shift at its limit");
+  ASSERT_EQ(said.size(), 1u);
+  EXPECT_EQ(said[0].rfind("upper_body_x held at its limit 14.0 cm in ", 0), 0u) << said[0];
+  EXPECT_NE(said[0].find("e.g. to [-0.02, 0.25]"), std::string::npos) << said[0];
+  EXPECT_TRUE(rows_named(*wide_range, "balance: upper-body shift at its limit").empty());
+  EXPECT_EQ(rows_named(*wide_range, "centre of mass inside the feet, least / at the end").size(), 1u);
   // The shipped scenario's own feet fit the default range.
   EXPECT_TRUE(summarize(*run_scenario(shipped("g1_reach_with_balance")))["balance"]["shift_at_limit"].empty());
 }
@@ -688,16 +712,6 @@ TEST(Scenarios, AttitudeTargetPitchedPastNinetyDegreesIsReached) {
     const auto [partial_acceleration, partial_dof] = largest_acceleration_after(*pitched, 0.0);
     EXPECT_LT(partial_acceleration, 10.0) << rows << ": " << partial_dof;
   }
-}
-
-/// The report's data (the JSON written into the page's template).
-nlohmann::json report_data(const ScenarioRun& run) {
-  const std::string page = render_report(run);
-  const std::string tmpl = report_template();
-  const size_t hole = tmpl.find("__WBM_REPORT_DATA__");
-  const std::string after = tmpl.substr(hole + 19, 40);
-  const size_t begin = page.find(tmpl.substr(hole - 40, 40)) + 40;
-  return nlohmann::json::parse(page.substr(begin, page.find(after, begin) - begin));
 }
 
 // An axis task with `axis` (G1's camera link looks along x): the view converges, and the
