@@ -148,9 +148,9 @@ void progress_bar(double t, double duration, bool done) {
 
 /// Records a cycle in which balance drove an upper-body shift dof at its limit further out
 /// (BalanceModule::last_shift_at_limit): which dof, its limit, and the shift the centre of
-/// mass would have needed, the dof's value plus the centre of mass's offset from the target's
-/// centroid along the dof's axis (the heel frame's x or y; the whole upper body moves with
-/// the shift).
+/// mass would have needed: the dof's value plus the centre of mass's offset from the target's
+/// centroid along the dof's axis (the heel frame's x or y), divided by the share of the mass
+/// the dof moves (the heel body's own mass stays; 1 for a URDF import, whose heel is massless).
 void note_shift_at_limit(const Model& model, const Controller& c, const SupportPolygon& target,
                          const std::array<int, 2>& side, ScenarioRun& run) {
   const VirtualDofs& v = model.virtual_dofs();
@@ -160,8 +160,12 @@ void note_shift_at_limit(const Model& model, const Controller& c, const SupportP
   const std::array<int, 2> dofs = {v.ub_x, v.ub_y};
   for (int k = 0; k < 2; ++k) {
     if (side[k] == 0) continue;
+    double moved_mass = 0.0;  // the subtree of the body the dof drives
+    for (int b = 0; b < model.num_bodies(); ++b)
+      if (model.body(b).dof == dofs[k]) moved_mass = model.subtree_mass()[b];
+    const double share = model.total_mass() > 0.0 && moved_mass > 0.0 ? moved_mass / model.total_mass() : 1.0;
     ScenarioRun::ShiftAtLimit& s = run.shift_at_limit[k];
-    const double needed = c.q()[dofs[k]] + offset_H[k];
+    const double needed = c.q()[dofs[k]] + offset_H[k] / share;
     if (s.cycles == 0 || (side[k] > 0 ? needed > s.needed : needed < s.needed)) s.needed = needed;
     s.side = side[k];
     ++s.cycles;

@@ -20,6 +20,7 @@
 #include "shipped_models.hpp"
 #include "wbm/balance.hpp"
 #include "wbm/errors.hpp"
+#include "wbm/kinematics.hpp"
 #include "wbm/paper_model.hpp"
 #include "wbm/tasks/position_task.hpp"
 
@@ -211,6 +212,34 @@ TEST(Balance, AShiftDrivenAgainstItsLimitIsFlagged) {
   EXPECT_TRUE(flags_at(dx.center(), dy.upper, left) & kShiftAtLimit);
   EXPECT_EQ(balance.last_shift_at_limit(), (Sides{0, 1}));
   EXPECT_FALSE(flags_at(dx.center(), dy.lower, left) & kShiftAtLimit);
+}
+
+// What the run's "needed" shift assumes: shifting the upper body by d moves the centre of mass
+// by d times the share of the mass that the shift dof carries (the paper model's heel body,
+// 10 kg of lumped shanks and feet, stays; a URDF import's heel is massless: share 1).
+TEST(Balance, TheCentreOfMassFollowsTheShiftByTheShareOfTheMassItMoves) {
+  for (const bool urdf : {false, true}) {
+    const Model model = urdf ? wbm_test::shipped_model("g1_29dof").load() : make_paper_model();
+    const VirtualDofs& v = model.virtual_dofs();
+    Data data(model);
+    for (const int dof : {v.ub_x, v.ub_y}) {
+      int body = -1;
+      for (int b = 0; b < model.num_bodies(); ++b)
+        if (model.body(b).dof == dof) body = b;
+      ASSERT_GE(body, 0);
+      const double share = model.subtree_mass()[body] / model.total_mass();
+      if (urdf) EXPECT_NEAR(share, 1.0, 1e-14);
+      else EXPECT_NEAR(share, 1.0 - 10.0 / model.total_mass(), 1e-12);
+      VectorXd q = model.home();
+      forward_kinematics(model, data, q);
+      const Vector3 before = center_of_mass_position(model, data);
+      q[dof] += 0.01;
+      forward_kinematics(model, data, q);
+      const Vector3 moved = center_of_mass_position(model, data) - before;
+      const Matrix3& R_WH = data.X_WB[v.heel_body].R;  // the shift's axes are the heel frame's
+      EXPECT_NEAR((R_WH.transpose() * moved)[dof == v.ub_x ? 0 : 1], 0.01 * share, 1e-12) << model.name();
+    }
+  }
 }
 
 // Feet longer than the default upper-body range allows for (TOCABI's, 0.30 m, needed 0.21 m
