@@ -45,9 +45,11 @@ struct UrdfImportOptions {
   /// far the legs carry the upper body, and bounds where the balance module (section V) can
   /// move it: the default (-0.02, 0.14), home in its middle, suits feet about 0.22 m long;
   /// with longer feet the centre of mass may need the upper body further forward
-  /// (BalanceFlag kShiftAtLimit, reported by `wbm run`). Values outside a dof's range are
-  /// clamped, so on a fixed base (upright_base_configuration) a range without 0 moves the
-  /// root off the base's origin.
+  /// (BalanceFlag kShiftAtLimit, reported by `wbm run`). As for every dof, its weight in W
+  /// (eq. 6) and the joint-limit criterion follow the range: without balance, a wider range
+  /// lets the solver shift the upper body more. Values outside a dof's range are clamped, so
+  /// on a fixed base (upright_base_configuration) a range without 0 moves the root off the
+  /// base's origin.
   std::array<double, 2> upper_body_x_range = {-0.02, 0.14};
   /// Same for the sideways shift (upper_body_y) [m].
   std::array<double, 2> upper_body_y_range = {-0.08, 0.08};
