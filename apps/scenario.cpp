@@ -162,7 +162,7 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
   if (root["description"]) s.description = r.text(root["description"], "description");
   if (const YAML::Node robot = root["robot"]) {
     r.only(robot, "robot", {"builtin", "urdf", "root", "legs", "drop_legs", "root_height", "root_rpy", "default_limits",
-                            "upper_body_x_range", "upper_body_y_range", "fixed_base"});
+                            "upper_body_x_range", "upper_body_y_range", "ignore_xacro_elements", "fixed_base"});
     s.robot_line = r.line(robot);
     if (robot["builtin"] && r.text(robot["builtin"], "robot.builtin") != "paper")
       r.fail(robot["builtin"], "robot.builtin", "expected 'paper' (the only built-in model)");
@@ -172,7 +172,7 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
       if (!s.urdf.empty() && s.urdf[0] != '/') s.urdf = base_dir + "/" + s.urdf;
     } else {  // the import options would be ignored without a word
       for (const char* option : {"root", "legs", "drop_legs", "root_height", "root_rpy", "default_limits",
-                                 "upper_body_x_range", "upper_body_y_range"})
+                                 "upper_body_x_range", "upper_body_y_range", "ignore_xacro_elements"})
         if (robot[option])
           r.fail(robot[option], std::string("robot.") + option,
                  "an option of the URDF import; the built-in paper model takes none (add robot.urdf)");
@@ -199,6 +199,8 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
     range("upper_body_x_range", s.urdf_options.upper_body_x_range);
     range("upper_body_y_range", s.urdf_options.upper_body_y_range);
     if (robot["default_limits"]) s.urdf_options.default_limits = r.boolean(robot["default_limits"], "robot.default_limits");
+    if (robot["ignore_xacro_elements"])
+      s.urdf_options.ignore_xacro_elements = r.boolean(robot["ignore_xacro_elements"], "robot.ignore_xacro_elements");
     if (robot["fixed_base"]) s.fixed_base = r.boolean(robot["fixed_base"], "robot.fixed_base");
   }
   // A fixed base keeps the nine virtual dofs frozen; balance shifts the upper body and

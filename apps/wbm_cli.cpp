@@ -47,6 +47,9 @@ struct ModelSource {
         ->expected(3);
     app.add_flag("--default-limits", urdf.default_limits,
                  "give joints without limits [-pi, pi] rad, 2 rad/s ([-1, 1] m, 0.5 m/s prismatic)");
+    app.add_flag("--ignore-xacro-elements", urdf.ignore_xacro_elements,
+                 "skip xacro elements below <robot> (a .urdf whose links and joints are all written out), as "
+                 "urdfdom does");
     app.add_option("--upper-body-x-range", upper_body_x_range,
                    "range of the upper body's forward shift over the heel (the feet's back edge): lower,upper [m] "
                    "(default -0.02,0.14; further forward for long feet)")

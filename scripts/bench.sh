@@ -11,7 +11,7 @@
 #   scripts/bench.sh ROBOT.urdf --hands LEFT,RIGHT [--head FRAME] [--root LINK] [--legs A,B]
 #                    [--com] [--posture DOF,DOF,...]
 #                    [--default-limits] [--drop-legs] [--root-height H] [--root-rpy R,P,Y] [--fixed-base] [--short]
-#                    [--upper-body-x-range LO,HI] [--upper-body-y-range LO,HI]
+#                    [--upper-body-x-range LO,HI] [--upper-body-y-range LO,HI] [--ignore-xacro-elements]
 #                                         your robot: both hands position + grasp axis and the
 #                                         head's view axis (12 rows; 10 without --head), the
 #                                         centre of mass (3 rows) and joint rows if asked, with

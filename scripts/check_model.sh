@@ -3,7 +3,8 @@
 #
 #   scripts/check_model.sh ROBOT.urdf --hands LEFT,RIGHT [--head FRAME] [--legs A,B] [--root LINK]
 #                          [--root-height H] [--root-rpy R,P,Y] [--default-limits] [--drop-legs] [--fixed-base]
-#                          [--upper-body-x-range LO,HI] [--upper-body-y-range LO,HI] [--build-dir DIR]
+#                          [--upper-body-x-range LO,HI] [--upper-body-y-range LO,HI] [--ignore-xacro-elements]
+#                          [--build-dir DIR]
 #
 #   kinematics  every Jacobian (frames, points, axes, centre of mass) against central
 #               differences of forward kinematics on random configurations; J q_dot against

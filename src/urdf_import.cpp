@@ -65,10 +65,7 @@ class UrdfChecker {
     if (std::string(robot->Value()) != "robot")
       fail(robot->Row(), std::string("expected a <robot> root element, found <") + robot->Value() + ">");
     required(robot, "name", "robot");  // urdfdom rejects a nameless robot, without a line
-    for (const TiXmlElement* e = robot->FirstChildElement(); e; e = e->NextSiblingElement())
-      if (std::string(e->Value()).rfind("xacro:", 0) == 0)
-        fail(e->Row(), std::string("<") + e->Value() + "> is a xacro macro: expand the file first (`xacro " +
-                           "robot.urdf.xacro > robot.urdf`, package xacro)");
+    for (const TiXmlElement* e = robot->FirstChildElement(); e; e = e->NextSiblingElement()) check_xacro(e);
     for (const TiXmlElement* e = robot->FirstChildElement("link"); e; e = e->NextSiblingElement("link"))
       check_link(e);
     for (const TiXmlElement* e = robot->FirstChildElement("joint"); e; e = e->NextSiblingElement("joint"))
@@ -77,6 +74,59 @@ class UrdfChecker {
       check_numeric_attributes(e, "material " + quoted(e->Attribute("name") ? e->Attribute("name") : ""));
     if (links_.empty()) fail(robot->Row(), "<robot> has no <link>");
     check_tree();
+  }
+
+  /// Unexpanded xacro in a top-level element `e` of <robot>. By default every xacro element
+  /// is an error. With ignore_xacro_elements, top-level ones are skipped (as urdfdom and
+  /// kdl_parser skip every element they do not know) unless they hold a <link> or <joint>,
+  /// which would be missing from the model; a xacro element inside a link, joint or
+  /// material (e.g. `<xacro:insert_block name="origin"/>`) is an error either way, since it
+  /// stands for part of that element.
+  void check_xacro(const TiXmlElement* e) const {
+    const std::string tag = e->Value();
+    const bool shapes_the_model = tag == "link" || tag == "joint" || tag == "material";
+    if (is_xacro(e)) {
+      if (!options_.ignore_xacro_elements)
+        fail(e->Row(), "<" + tag + "> is a xacro element: expand the file first (`xacro robot.urdf.xacro > " +
+                           "robot.urdf`, ROS's xacro), or, if every link and joint is written out in it, import " +
+                           "with ignore_xacro_elements (--ignore-xacro-elements), which skips such elements");
+      if (const TiXmlElement* inner = link_or_joint_made_by(e))
+        fail(inner->Row(), "<" + std::string(inner->Value()) + "> inside <" + tag + "> (line " +
+                               std::to_string(e->Row()) +
+                               "): xacro makes links or joints here, which would be missing without it "
+                               "(ignore_xacro_elements skips only elements that make none); expand the file "
+                               "with xacro first");
+      return;
+    }
+    if (const TiXmlElement* inner = first_xacro_below(e))
+      if (shapes_the_model || !options_.ignore_xacro_elements)
+        fail(inner->Row(), "<" + std::string(inner->Value()) + "> inside <" + tag + "> (line " +
+                               std::to_string(e->Row()) + ") is a xacro element: expand the file first (`xacro " +
+                               "robot.urdf.xacro > robot.urdf`, ROS's xacro)" +
+                               (shapes_the_model ? "" : ", or import with ignore_xacro_elements (--ignore-xacro-elements)"));
+  }
+
+  static bool is_xacro(const TiXmlElement* e) { return std::string(e->Value()).rfind("xacro:", 0) == 0; }
+
+  /// A <link> or <joint> that the xacro element `e` makes: a child of it or of the xacro
+  /// elements inside it (`<xacro:if>` in a macro), not one inside another element (the
+  /// `<joint name="...">` of a `<transmission>` names a joint, it does not make one).
+  static const TiXmlElement* link_or_joint_made_by(const TiXmlElement* e) {
+    for (const TiXmlElement* c = e->FirstChildElement(); c; c = c->NextSiblingElement()) {
+      if (c->Value() == std::string("link") || c->Value() == std::string("joint")) return c;
+      if (is_xacro(c))
+        if (const TiXmlElement* found = link_or_joint_made_by(c)) return found;
+    }
+    return nullptr;
+  }
+
+  /// The first xacro element below `e` (depth first, in document order), or nullptr.
+  static const TiXmlElement* first_xacro_below(const TiXmlElement* e) {
+    for (const TiXmlElement* c = e->FirstChildElement(); c; c = c->NextSiblingElement()) {
+      if (is_xacro(c)) return c;
+      if (const TiXmlElement* found = first_xacro_below(c)) return found;
+    }
+    return nullptr;
   }
 
   [[noreturn]] void fail(int line, const std::string& message) const {
@@ -101,6 +151,16 @@ class UrdfChecker {
     const char* v = e->Attribute(attr);
     if (v == nullptr || *v == '\0')
       fail(e->Row(), what + ": <" + e->Value() + "> lacks the attribute '" + attr + "'");
+    return v;
+  }
+
+  /// required() for a name or a reference to one, which must not be an unexpanded xacro
+  /// expression (`${prefix}hand` would otherwise become a link of that name).
+  std::string name_attribute(const TiXmlElement* e, const char* attr, const std::string& what) const {
+    std::string v = required(e, attr, what);
+    if (v.find("${") != std::string::npos || v.find("$(") != std::string::npos)
+      fail(e->Row(), what + ": <" + e->Value() + " " + attr + "> is '" + v +
+                         "', an unexpanded xacro expression: expand the file with xacro first");
     return v;
   }
 
@@ -146,7 +206,7 @@ class UrdfChecker {
   }
 
   void check_link(const TiXmlElement* e) {
-    const std::string name = required(e, "name", "link");
+    const std::string name = name_attribute(e, "name", "link");
     const std::string what = "link " + quoted(name);
     if (links_.count(name))
       fail(e->Row(), "duplicate " + what + " (first defined on line " +
@@ -195,7 +255,7 @@ class UrdfChecker {
 
   void check_joint(const TiXmlElement* e) {
     JointInfo j;
-    j.name = required(e, "name", "joint");
+    j.name = name_attribute(e, "name", "joint");
     j.line = e->Row();
     const std::string what = "joint " + quoted(j.name);
     if (joint_index_.count(j.name))
@@ -212,10 +272,10 @@ class UrdfChecker {
     const TiXmlElement* child = e->FirstChildElement("child");
     if (parent == nullptr) fail(j.line, what + " has no <parent link=...>");
     if (child == nullptr) fail(j.line, what + " has no <child link=...>");
-    j.parent = required(parent, "link", what);
-    j.child = required(child, "link", what);
+    j.parent = name_attribute(parent, "link", what);
+    j.child = name_attribute(child, "link", what);
     const bool movable = j.type == "revolute" || j.type == "continuous" || j.type == "prismatic";
-    if (const TiXmlElement* mimic = e->FirstChildElement("mimic")) j.mimic = required(mimic, "joint", what);
+    if (const TiXmlElement* mimic = e->FirstChildElement("mimic")) j.mimic = name_attribute(mimic, "joint", what);
     if (movable) {
       if (const TiXmlElement* axis = e->FirstChildElement("axis")) {
         const std::vector<double> a = numbers(axis, "xyz", 3, what);

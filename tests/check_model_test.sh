@@ -26,16 +26,29 @@ for name in Kinematics.JacobiansMatchFiniteDifferences/user Kinematics.JacobianT
 done
 grep -Eq '^(1[6-9]|[2-9][0-9]) passed, [0-9]+ skipped, 0 failed$' "$work/out.txt" || { cat "$work/out.txt"; fail "summary"; }
 
-# 2. A robot on a fixed base whose URDF has no masses (no centre of mass to check).
-python3 - "$work/massless.urdf" <<'PY'
+# 2. A robot on a fixed base whose URDF has no masses (no centre of mass to check), in a copy
+# with xacro leftovers beside its links and joints (--ignore-xacro-elements; KDL's parser
+# skips them too).
+python3 - "$work/massless.urdf" "$work/massless_xacro.urdf" <<'PY'
 import re, sys
-text = open("models/dual_arm/dual_arm.urdf").read()
-open(sys.argv[1], "w").write(re.sub(r"<inertial>.*?</inertial>", "", text, flags=re.S))
+text = re.sub(r"<inertial>.*?</inertial>", "", open("models/dual_arm/dual_arm.urdf").read(), flags=re.S)
+open(sys.argv[1], "w").write(text)
+leftovers = ('<robot name="dual_arm">\n  <xacro:include filename="$(find dual_arm)/materials.xacro"/>\n'
+             '  <xacro:macro name="gz" params="link"><gazebo reference="${link}"/></xacro:macro>\n'
+             '  <xacro:gz link="torso"/>')
+open(sys.argv[2], "w").write(text.replace('<robot name="dual_arm">', leftovers))
 PY
-scripts/check_model.sh "$work/massless.urdf" --hands left_tool,right_tool --fixed-base --build-dir "$build_dir" \
-  >"$work/out_massless.txt" 2>&1 || rc=$?
+scripts/check_model.sh "$work/massless_xacro.urdf" --hands left_tool,right_tool --fixed-base --ignore-xacro-elements \
+  --build-dir "$build_dir" >"$work/out_massless.txt" 2>&1 || rc=$?
 [[ $rc -eq 0 ]] || { cat "$work/out_massless.txt"; fail "massless fixed-base robot: exit $rc"; }
 grep -Eq '^1[6-9] passed, [0-9]+ skipped, 0 failed$' "$work/out_massless.txt" || { cat "$work/out_massless.txt"; fail "massless summary"; }
+set +e
+scripts/check_model.sh "$work/massless_xacro.urdf" --hands left_tool,right_tool --fixed-base --build-dir "$build_dir" \
+  >/dev/null 2>"$work/err7.txt"
+rc=$?
+set -e
+[[ $rc -ne 0 ]] && grep -q "massless_xacro.urdf:7: <xacro:include> is a xacro element: expand the file first" "$work/err7.txt" ||
+  { cat "$work/err7.txt"; fail "xacro leftovers without the flag: exit $rc"; }
 
 # 3. A misspelt frame: exit 2, the flag and the closest name, nothing on stdout.
 set +e

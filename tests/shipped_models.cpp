@@ -111,6 +111,7 @@ ShippedModel model_from_environment() {
     }
   }
   m.options.default_limits = std::getenv("WBM_TEST_DEFAULT_LIMITS") != nullptr;
+  m.options.ignore_xacro_elements = std::getenv("WBM_TEST_IGNORE_XACRO_ELEMENTS") != nullptr;
   if (std::getenv("WBM_TEST_DROP_LEGS") != nullptr) m.options.leg_mode = wbm::LegMode::kDrop;
   m.fixed_base = std::getenv("WBM_TEST_FIXED_BASE") != nullptr;
   m.min_full_rank_share = 0.1;  // not known (see the field)

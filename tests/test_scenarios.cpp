@@ -18,6 +18,7 @@
 #include "runner.hpp"
 #include "scenario.hpp"
 #include "shipped_models.hpp"
+#include "test_util.hpp"
 #include "wbm/balance.hpp"
 #include "wbm/errors.hpp"
 #include "wbm/kinematics.hpp"
@@ -1075,6 +1076,10 @@ TEST(Scenarios, BadFilesNameTheLineAndField) {
        "bad.yaml:6: timeline[0].balance: balance moves the virtual dofs, which robot.fixed_base keeps frozen"},
       {"name: x\nrobot: {fixed_base: yes please}\ntasks: [{name: a, type: position, frame: f}]\n",
        "bad.yaml:2: robot.fixed_base: expected true or false"},
+      {"name: x\nrobot: {builtin: paper, ignore_xacro_elements: true}\ntasks: [{name: a, type: position, frame: f}]\n",
+       "bad.yaml:2: robot.ignore_xacro_elements: an option of the URDF import; the built-in paper model takes none"},
+      {"name: x\nrobot: {urdf: g1.urdf, ignore_xacro_elements: 1.5}\ntasks: [{name: a, type: position, frame: f}]\n",
+       "bad.yaml:2: robot.ignore_xacro_elements: expected true or false"},
       // The scenario's name is its output directory when several run: it may not leave --out
       // or be --out itself; element names head CSV columns and messages (found by fuzzing).
       {"name: ../elsewhere\ntasks: [{name: a, type: position, frame: f}]\n",
@@ -1155,6 +1160,30 @@ TEST(Scenarios, UnknownNamesInTheTimelineAreReportedBeforeRunning) {
       }
     }
   }
+}
+
+// robot.ignore_xacro_elements is the import option: a file with xacro leftovers (docs/model.md)
+// loads with it, and without it the import's message stands at the robot's line.
+TEST(Scenarios, IgnoreXacroElementsIsTheImportOption) {
+  const std::string xml = wbm_test::read_file(wbm_test::source_path("models/dual_arm/dual_arm.urdf"));
+  const std::string file = testing::TempDir() + "wbm_scenario_xacro.urdf";
+  const std::string robot_tag = "<robot name=\"dual_arm\">";
+  ASSERT_NE(xml.find(robot_tag), std::string::npos);
+  std::ofstream(file) << std::string(xml).replace(xml.find(robot_tag), robot_tag.size(),
+                                                  robot_tag + "<xacro:property name=\"h\" value=\"1\"/>");
+  const std::string rest = "tasks: [{name: a, type: position, frame: left_tool}]\nduration: 0.01\n";
+  const Scenario s = parse_scenario("name: x\nrobot: {urdf: '" + file + "', fixed_base: true, ignore_xacro_elements: true}\n" + rest,
+                                    "ok.yaml", ".");
+  EXPECT_TRUE(s.urdf_options.ignore_xacro_elements);
+  EXPECT_NO_THROW(run_scenario(s));
+  try {
+    run_scenario(parse_scenario("name: x\nrobot: {urdf: '" + file + "', fixed_base: true}\n" + rest, "bad.yaml", "."));
+    ADD_FAILURE() << "xacro leftovers accepted without the option";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.yaml:2: robot: "), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("<xacro:property> is a xacro element"), std::string::npos) << e.what();
+  }
+  std::remove(file.c_str());
 }
 
 // root_rpy's range is load_urdf's rule: its message, at the scenario's robot line.

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <random>
 #include <set>
 #include <sstream>
 #include <typeinfo>
@@ -22,6 +23,7 @@
 
 #include "shipped_models.hpp"
 #include "wbm/errors.hpp"
+#include "wbm/kinematics.hpp"
 #include "wbm/urdf_import.hpp"
 
 namespace {
@@ -31,6 +33,7 @@ struct Case {
   std::string expected;  ///< exact substring of the message (file name and line included)
   std::string root;
   std::vector<std::string> legs;
+  bool ignore_xacro_elements = false;  ///< the option (--ignore-xacro-elements)
 };
 
 void PrintTo(const Case& c, std::ostream* os) { *os << c.file; }
@@ -86,7 +89,33 @@ const std::vector<Case>& catalogue() {
        "virtual_body_name.urdf:7: link 'heel': the name of one of the virtual bodies wbm adds (heel, heel_x", "", {}},
       {"virtual_body_name_root.urdf",
        "virtual_body_name_root.urdf:3: link 'heel': the name of one of the virtual bodies wbm adds", "", {}},
-      {"xacro_macro.urdf", "xacro_macro.urdf:3: <xacro:property> is a xacro macro: expand the file first", "", {}},
+      {"xacro_macro.urdf",
+       "xacro_macro.urdf:3: <xacro:property> is a xacro element: expand the file first (`xacro robot.urdf.xacro > "
+       "robot.urdf`, ROS's xacro), or, if every link and joint is written out in it, import with "
+       "ignore_xacro_elements (--ignore-xacro-elements)",
+       "", {}},
+      {"xacro_in_gazebo_tag.urdf",
+       "xacro_in_gazebo_tag.urdf:7: <xacro:if> inside <gazebo> (line 6) is a xacro element: expand the file first "
+       "(`xacro robot.urdf.xacro > robot.urdf`, ROS's xacro), or import with ignore_xacro_elements "
+       "(--ignore-xacro-elements)",
+       "", {}},
+      // With the option: what it still refuses.
+      {"xacro_macro_makes_links.urdf",
+       "xacro_macro_makes_links.urdf:4: <link> inside <xacro:macro> (line 3): xacro makes links or joints here, which "
+       "would be missing without it",
+       "", {}, true},
+      {"xacro_inside_joint.urdf",
+       "xacro_inside_joint.urdf:12: <xacro:insert_block> inside <joint> (line 9) is a xacro element: expand the file "
+       "first (`xacro robot.urdf.xacro > robot.urdf`, ROS's xacro)",
+       "", {}, true},
+      {"xacro_expression_in_name.urdf",
+       "xacro_expression_in_name.urdf:6: link: <link name> is '${prefix}hand', an unexpanded xacro expression: expand "
+       "the file with xacro first",
+       "", {}, true},
+      {"xacro_expression_in_child.urdf",
+       "xacro_expression_in_child.urdf:8: joint 'j1': <child link> is '$(arg prefix)hand', an unexpanded xacro "
+       "expression",
+       "", {}},
       {"xacro_expression.urdf",
        "xacro_expression.urdf:10: joint 'j1': <origin xyz> has '${h}' where a finite number was expected (an "
        "unexpanded xacro expression",
@@ -141,6 +170,7 @@ wbm::UrdfImportOptions options_of(const Case& c) {
   wbm::UrdfImportOptions options;
   options.root = c.root;
   options.legs = c.legs;
+  options.ignore_xacro_elements = c.ignore_xacro_elements;
   return options;
 }
 
@@ -215,6 +245,7 @@ TEST_P(MalformedUrdf, CliExitsNonZeroWithTheMessageOnStderr) {
       command += c.legs[i];
     }
   }
+  if (c.ignore_xacro_elements) command += " --ignore-xacro-elements";
   const CliRun r = run(command, c.file);
   EXPECT_NE(r.status, 0) << command;
   EXPECT_NE(r.err.find("wbm: error: "), std::string::npos) << r.err;
@@ -309,6 +340,82 @@ TEST(UrdfErrors, DroppingLegsNeedsTheLegs) {
   }
   options.legs = {"LPelvis", "RPelvis"};
   EXPECT_NO_THROW(wbm::load_urdf(wbm_test::source_path("models/third_party/nao/nao.urdf"), options));
+}
+
+// A written-out .urdf with xacro leftovers beside its links and joints (as NEXTAGE OPEN's:
+// an include, a property, macros that only add Gazebo and transmission tags, their calls):
+// refused by default, and with ignore_xacro_elements the same model as without them.
+std::string with_xacro_leftovers(const std::string& xml) {
+  const size_t robot_end = xml.find('>', xml.find("<robot"));
+  return xml.substr(0, robot_end + 1) + R"(
+  <xacro:include filename="$(find robot_description)/urdf/materials.urdf.xacro" />
+  <xacro:property name="damping" value="0.2"/>
+  <xacro:macro name="gazebo_link" params="name color">
+    <gazebo reference="${name}"><material>Gazebo/${color}</material></gazebo>
+  </xacro:macro>
+  <xacro:macro name="transmission" params="joint">
+    <transmission name="${joint}_trans"><joint name="${joint}"/></transmission>
+  </xacro:macro>
+  <xacro:gazebo_link name="torso" color="Black"/>
+  <xacro:transmission joint="torso_lift"/>
+  <gazebo reference="torso"><xacro:if value="true"><material>Gazebo/Grey</material></xacro:if></gazebo>)" +
+         xml.substr(robot_end + 1);
+}
+
+TEST(XacroLeftovers, RefusedByDefaultAndWithTheOptionTheSameModelAsWithout) {
+  const std::string path = wbm_test::source_path("models/dual_arm/dual_arm.urdf");
+  const std::string plain = wbm_test::read_file(path), leftovers = with_xacro_leftovers(plain);
+  ASSERT_NE(leftovers, plain);
+  try {
+    wbm::parse_urdf(leftovers, {}, "leftovers.urdf");
+    ADD_FAILURE() << "xacro elements accepted without the option";
+  } catch (const wbm::ParseError& e) {
+    EXPECT_NE(std::string(e.what()).find("<xacro:include> is a xacro element: expand the file first"), std::string::npos)
+        << e.what();
+  }
+  wbm::UrdfImportOptions options;
+  options.ignore_xacro_elements = true;
+  const wbm::Model expected = wbm::parse_urdf(plain, {}), model = wbm::parse_urdf(leftovers, options);
+  ASSERT_EQ(model.num_dofs(), expected.num_dofs());
+  ASSERT_EQ(model.num_frames(), expected.num_frames());
+  for (int i = 0; i < model.num_dofs(); ++i) {
+    EXPECT_EQ(model.dof(i).name, expected.dof(i).name);
+    EXPECT_EQ(model.dof(i).lower, expected.dof(i).lower);
+    EXPECT_EQ(model.dof(i).upper, expected.dof(i).upper);
+    EXPECT_EQ(model.dof(i).max_speed, expected.dof(i).max_speed);
+  }
+  wbm::Data data(model), expected_data(expected);
+  std::mt19937 rng(7);
+  for (int trial = 0; trial < 20; ++trial) {
+    Eigen::VectorXd q = expected.home();
+    for (int i = 0; i < q.size(); ++i) {
+      const wbm::Dof& d = expected.dof(i);
+      const double lo = std::max(d.lower, -3.0), hi = std::min(d.upper, 3.0);
+      q[i] = std::uniform_real_distribution<double>(lo, hi)(rng);
+    }
+    wbm::forward_kinematics(model, data, q);
+    wbm::forward_kinematics(expected, expected_data, q);
+    for (int f = 0; f < model.num_frames(); ++f) {
+      ASSERT_EQ(model.frame(f).name, expected.frame(f).name);
+      EXPECT_EQ(wbm::frame_pose(model, data, f).p, wbm::frame_pose(expected, expected_data, f).p) << model.frame(f).name;
+      EXPECT_EQ(wbm::frame_pose(model, data, f).R, wbm::frame_pose(expected, expected_data, f).R) << model.frame(f).name;
+    }
+  }
+#ifdef WBM_CLI_PATH
+  const std::string file = testing::TempDir() + "wbm_xacro_leftovers.urdf";
+  std::ofstream(file) << leftovers;
+  const std::string info = std::string("'") + WBM_CLI_PATH + "' model info --json '";
+  const CliRun refused = run(info + file + "'", "xacro_refused");
+  EXPECT_EQ(refused.status, 1);
+  EXPECT_NE(refused.err.find("wbm_xacro_leftovers.urdf:7: <xacro:include> is a xacro element"), std::string::npos)
+      << refused.err;
+  const CliRun accepted = run(info + file + "' --ignore-xacro-elements", "xacro_accepted");
+  ASSERT_EQ(accepted.status, 0) << accepted.err;
+  const CliRun original = run(info + path + "'", "xacro_original");
+  ASSERT_EQ(original.status, 0) << original.err;
+  EXPECT_EQ(accepted.out, original.out);
+  std::remove(file.c_str());
+#endif
 }
 
 TEST(UrdfErrors, ParseErrorIsAModelErrorAndAnError) {

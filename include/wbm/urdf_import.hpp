@@ -53,6 +53,14 @@ struct UrdfImportOptions {
   std::array<double, 2> upper_body_x_range = {-0.02, 0.14};
   /// Same for the sideways shift (upper_body_y) [m].
   std::array<double, 2> upper_body_y_range = {-0.08, 0.08};
+  /// A file with xacro elements (`<xacro:include>`, `<xacro:macro>`, ...) is an error
+  /// unless this is set; then the elements directly below <robot> are skipped, as urdfdom
+  /// and kdl_parser skip what they do not know: for a .urdf whose links and joints are all
+  /// written out beside a few xacro leftovers (e.g. NEXTAGE OPEN's, whose macros only add
+  /// Gazebo and transmission tags). Still an error: such an element holding a <link> or
+  /// <joint> (they would be missing), a xacro element inside a link, joint or material, and
+  /// a `${...}` expression where wbm reads a name or number. An included file is not read.
+  bool ignore_xacro_elements = false;
 };
 
 /// Loads a URDF file.
@@ -60,7 +68,7 @@ struct UrdfImportOptions {
 ///   unknown root/leg links, missing parents, kinematic loops, zero axes or axes more than
 ///   1 % from unit length (others are normalised), floating joints inside the tree, names
 ///   of the virtual dofs/bodies, negative masses, lower limit above upper, missing limits,
-///   unexpanded xacro; for kDrop without legs, a given root height that is not > 0 and an
+///   unexpanded xacro (see ignore_xacro_elements); for kDrop without legs, a given root height that is not > 0 and an
 ///   upper-body range that is not finite with lower < upper.
 Model load_urdf(const std::string& path, const UrdfImportOptions& options = {});
 
