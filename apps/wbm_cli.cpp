@@ -86,6 +86,49 @@ json matrix_json(const Eigen::MatrixXd& M) {
   return rows;
 }
 
+/// A "note: ..." line when the locked legs point more forward, backward or sideways than down
+/// at zero joint values in wbm's upper-body frame (x forward, z up; the base upright), or "":
+/// the sign of a root link turned by pitch or roll pi/2 without --root-rpy. The import refuses
+/// legs whose lowest link is less than a tenth of their length below the root, but legs turned
+/// forward may still reach that far down (Poppy's by pitch pi/2: 7 of 39 cm), and a given root
+/// height skips that check. The legs' vectors (first link to farthest link) are summed, so that
+/// legs splayed to both sides cancel; legs bent at zero (a crouching robot's) can show too.
+std::string legs_direction_note(const wbm::Model& model, const std::vector<std::string>& legs) {
+  wbm::Data data(model);
+  wbm::forward_kinematics(model, data, wbm::upright_base_configuration(model, model.home()));
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  int counted = 0;
+  for (const std::string& leg : legs) {
+    const int first = model.find_frame(leg);
+    if (first < 0) continue;  // dropped (--drop-legs)
+    const Eigen::Vector3d origin = wbm::frame_position(model, data, first);
+    Eigen::Vector3d farthest = Eigen::Vector3d::Zero();
+    for (int f = 0; f < model.num_frames(); ++f) {
+      int above = f;
+      while (above >= 0 && above != first) above = model.frame(above).parent;
+      const Eigen::Vector3d d = wbm::frame_position(model, data, f) - origin;
+      if (above == first && d.norm() > farthest.norm()) farthest = d;
+    }
+    sum += farthest;
+    ++counted;
+  }
+  if (counted == 0) return "";
+  const Eigen::Vector3d mean = sum / counted;
+  const double horizontal = std::hypot(mean.x(), mean.y());
+  if (!(horizontal > -mean.z())) return "";
+  const char* where = std::abs(mean.x()) >= std::abs(mean.y()) ? (mean.x() > 0 ? "forward" : "backward")
+                                                                  : (mean.y() > 0 ? "to the left" : "to the right");
+  const Eigen::Vector3d shown = mean.unaryExpr([](double v) { return std::abs(v) < 0.005 ? 0.0 : v; });  // no "-0.00"
+  std::ostringstream note;
+  note << std::fixed << std::setprecision(2) << "note: the legs point " << where
+       << " rather than down at zero joint values (from their first link to their farthest, on average " << shown.x()
+       << " m forward, " << shown.y() << " m left, " << shown.z()
+       << " m up, in wbm's upper-body frame: x forward, y left, z up): if the root link's x axis is not forward or "
+          "its z axis not up, give its orientation with --root-rpy (docs/model.md); legs bent at zero can show this "
+          "too\n";
+  return note.str();
+}
+
 int model_info(ModelSource& source, bool as_json) {
   const wbm::Model model = source.load();
   if (as_json) {
@@ -138,6 +181,8 @@ int model_info(ModelSource& source, bool as_json) {
               << "): the speed limits, the braking before position limits and the bound on the rates' change "
                  "are proportional to it and will hardly act; if the URDF's <limit velocity> is a placeholder, "
                  "give the real speeds\n";
+  if (!source.file.empty())
+    if (const std::string note = legs_direction_note(model, source.urdf.legs); !note.empty()) std::cout << "\n" << note;
   std::cout << "\nframes (body, and the frame it hangs from where given):";
   for (const wbm::Frame& f : model.frames()) {
     std::cout << "\n  " << f.name << " (" << model.body(f.body).name;

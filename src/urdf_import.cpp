@@ -722,7 +722,8 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
     // turned by roll 3.14159: 1.2e-8 m; by roll pi/2: 5 mm of its 0.39 m legs) was accepted
     // before, and the robot stood on its head. Only a tenth: legs may splay or fold (random
     // H1 variants: 0.57 m down with 2.0 m long legs), and a root turned by pitch pi/2 (legs
-    // forward, 0.07 of 0.39 m down on Poppy) is not told from such a robot.
+    // forward, 0.07 of 0.39 m down on Poppy) is not told from such a robot (`wbm model info`
+    // notes legs that point more sideways than down: apps/wbm_cli.cpp).
     const double depth = -tree.lowest_leg_z_;
     if (depth > 0.0 && depth < 0.1 * tree.leg_length_) {
       std::ostringstream msg;

@@ -78,6 +78,39 @@ TEST(Cli, ModelInfoNotesImplausibleSpeedLimits) {
   EXPECT_EQ(g1.out.find("note:"), std::string::npos) << g1.out;
 }
 
+// Legs that point forward, backward or sideways at zero joint values get a note naming
+// --root-rpy (a root link turned by pi/2 that the import's own check lets pass, e.g. with the
+// root height given); no shipped humanoid's legs do.
+TEST(Cli, ModelInfoNotesLegsThatDoNotPointDown) {
+  for (const wbm_test::ShippedModel& m : wbm_test::shipped_urdf_models()) {
+    if (m.options.legs.empty()) continue;
+    std::string legs;
+    for (const std::string& leg : m.options.legs) legs += (legs.empty() ? "" : ",") + leg;
+    std::string flags = " --legs " + legs;
+    if (!m.options.root.empty()) flags += " --root " + m.options.root;
+    if (m.options.default_limits) flags += " --default-limits";
+    const CliRun r = wbm_cli("model info '" + m.path + "'" + flags);
+    EXPECT_EQ(r.status, 0) << m.id << ": " << r.err;
+    EXPECT_EQ(r.out.find("note: the legs"), std::string::npos) << m.id << ": " << r.out;
+  }
+  const wbm_test::ShippedModel& g1 = wbm_test::shipped_model("g1_29dof");
+  const std::string g1_info = "model info '" + g1.path + "' --legs left_hip_pitch_link,right_hip_pitch_link --root-height 0.8";
+  for (const auto& [rpy, expected] :
+       {std::pair{"0,1.5707963,0", "note: the legs point backward rather than down at zero joint values (from their "
+                                   "first link to their farthest, on average -0.65 m forward, 0.00 m left, 0.00 m up"},
+        std::pair{"0,-1.5707963,0", "note: the legs point forward rather than down"},
+        std::pair{"1.5707963,0,0", "note: the legs point to the left rather than down"},
+        std::pair{"-1.5707963,0,0", "note: the legs point to the right rather than down"}}) {
+    const CliRun r = wbm_cli(g1_info + " --root-rpy " + rpy);
+    EXPECT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.out.find(expected), std::string::npos) << rpy << ": " << r.out;
+    EXPECT_NE(r.out.find("give its orientation with --root-rpy"), std::string::npos) << r.out;
+  }
+  // Tilted by less than 45 degrees the legs still point down; dropped legs say nothing.
+  EXPECT_EQ(wbm_cli(g1_info + " --root-rpy 0,0.7,0").out.find("note: the legs"), std::string::npos);
+  EXPECT_EQ(wbm_cli(g1_info + " --root-rpy 0,1.5707963,0 --drop-legs").out.find("note: the legs"), std::string::npos);
+}
+
 TEST(Cli, ModelInfoJson) {
   const json j = parse(wbm_cli("model info --json"));
   ASSERT_TRUE(j.is_object());
