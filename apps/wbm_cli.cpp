@@ -86,7 +86,7 @@ json matrix_json(const Eigen::MatrixXd& M) {
   return rows;
 }
 
-/// A "note: ..." line when the locked legs point more forward, backward or sideways than down
+/// A note when the locked legs point more forward, backward or sideways than down
 /// at zero joint values in wbm's upper-body frame (x forward, z up; the base upright), or "":
 /// the sign of a root link turned by pitch or roll pi/2 without --root-rpy. The import refuses
 /// legs whose lowest link is less than a tenth of their length below the root, but legs turned
@@ -120,13 +120,45 @@ std::string legs_direction_note(const wbm::Model& model, const std::vector<std::
                                                                   : (mean.y() > 0 ? "to the left" : "to the right");
   const Eigen::Vector3d shown = mean.unaryExpr([](double v) { return std::abs(v) < 0.005 ? 0.0 : v; });  // no "-0.00"
   std::ostringstream note;
-  note << std::fixed << std::setprecision(2) << "note: the legs point " << where
+  note << std::fixed << std::setprecision(2) << "the legs point " << where
        << " rather than down at zero joint values (from their first link to their farthest, on average " << shown.x()
        << " m forward, " << shown.y() << " m left, " << shown.z()
        << " m up, in wbm's upper-body frame: x forward, y left, z up): if the root link's x axis is not forward or "
           "its z axis not up, give its orientation with --root-rpy (docs/model.md); legs bent at zero can show this "
-          "too\n";
+          "too";
   return note.str();
+}
+
+/// A note when speed limits look like placeholders, or "": a URDF's <limit velocity> taken at
+/// its word (1e9 in ergoCub's files) leaves the speed limits, the braking before position
+/// limits and the bound on the rates' change (all proportional to it) without effect.
+std::string speed_limit_note(const wbm::Model& model) {
+  constexpr double kImplausibleSpeed = 100.0;  // rad/s or m/s; G1's fastest joints: 37 rad/s
+  int implausible = 0;
+  int fastest = -1;
+  for (int i = 0; i < model.num_dofs(); ++i)
+    if (model.dof(i).max_speed > kImplausibleSpeed) {
+      ++implausible;
+      if (fastest < 0 || model.dof(i).max_speed > model.dof(fastest).max_speed) fastest = i;
+    }
+  if (implausible == 0) return "";
+  std::ostringstream note;
+  note << implausible << " dof" << (implausible == 1 ? "" : "s") << " with a speed limit above " << kImplausibleSpeed
+       << " rad/s or m/s (the largest: '" << model.dof(fastest).name << "', " << model.dof(fastest).max_speed
+       << "): the speed limits, the braking before position limits and the bound on the rates' change are "
+          "proportional to it and will hardly act; if the URDF's <limit velocity> is a placeholder, give the real "
+          "speeds";
+  return note.str();
+}
+
+/// What `model info` notes about a file that imports but may not be what its author meant,
+/// said where a user checks a file (text: "note: ..." lines; --json: "notes").
+std::vector<std::string> model_notes(const ModelSource& source, const wbm::Model& model) {
+  std::vector<std::string> notes;
+  if (source.file.empty()) return notes;
+  for (const std::string& note : {speed_limit_note(model), legs_direction_note(model, source.urdf.legs)})
+    if (!note.empty()) notes.push_back(note);
+  return notes;
 }
 
 int model_info(ModelSource& source, bool as_json) {
@@ -149,6 +181,7 @@ int model_info(ModelSource& source, bool as_json) {
                         {"parent", f.parent >= 0 ? json(model.frame(f.parent).name) : json(nullptr)},
                         {"offset", {f.X_BF.p.x(), f.X_BF.p.y(), f.X_BF.p.z()}}});
     out["frames"] = frames;
+    out["notes"] = model_notes(source, model);
     std::cout << out.dump(2) << "\n";
     return 0;
   }
@@ -163,26 +196,7 @@ int model_info(ModelSource& source, bool as_json) {
               << std::right << std::setw(9) << d.lower << "  " << std::setw(9) << d.upper << "  " << std::setw(9)
               << d.max_speed << "  " << std::setw(9) << d.work_range << "\n";
   }
-  // A URDF's <limit velocity> taken at its word: a placeholder such as 1e9 (ergoCub's files)
-  // leaves the speed limits, the braking before position limits and the bound on the rates'
-  // change (all proportional to it) without effect. Said here, where a user checks a file.
-  constexpr double kImplausibleSpeed = 100.0;  // rad/s or m/s; G1's fastest joints: 37 rad/s
-  int implausible = 0;
-  int fastest = -1;
-  for (int i = 0; i < model.num_dofs(); ++i)
-    if (model.dof(i).max_speed > kImplausibleSpeed) {
-      ++implausible;
-      if (fastest < 0 || model.dof(i).max_speed > model.dof(fastest).max_speed) fastest = i;
-    }
-  if (implausible > 0)
-    std::cout << std::defaultfloat << "\nnote: " << implausible << " dof" << (implausible == 1 ? "" : "s")
-              << " with a speed limit above " << kImplausibleSpeed << " rad/s or m/s (the largest: '"
-              << model.dof(fastest).name << "', " << model.dof(fastest).max_speed
-              << "): the speed limits, the braking before position limits and the bound on the rates' change "
-                 "are proportional to it and will hardly act; if the URDF's <limit velocity> is a placeholder, "
-                 "give the real speeds\n";
-  if (!source.file.empty())
-    if (const std::string note = legs_direction_note(model, source.urdf.legs); !note.empty()) std::cout << "\n" << note;
+  for (const std::string& note : model_notes(source, model)) std::cout << "\nnote: " << note << "\n";
   std::cout << "\nframes (body, and the frame it hangs from where given):";
   for (const wbm::Frame& f : model.frames()) {
     std::cout << "\n  " << f.name << " (" << model.body(f.body).name;

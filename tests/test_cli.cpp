@@ -66,11 +66,15 @@ TEST(Cli, ModelInfoNotesImplausibleSpeedLimits) {
                          "<joint name=\"fast\" type=\"revolute\"><parent link=\"a\"/><child link=\"b\"/><axis xyz=\"0 1 0\"/>"
                          "<limit lower=\"-1\" upper=\"1\" effort=\"1\" velocity=\"1e9\"/></joint>\n</robot>\n";
   const CliRun r = wbm_cli("model info '" + file + "' --root-height 1");
+  const CliRun as_json = wbm_cli("model info '" + file + "' --root-height 1 --json");
   std::remove(file.c_str());
   EXPECT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.out.find("note: 1 dof with a speed limit above 100 rad/s or m/s (the largest: 'fast', 1e+09)"),
             std::string::npos)
       << r.out;
+  const json notes = parse(as_json)["notes"];  // the same notes for scripts
+  ASSERT_EQ(notes.size(), 1u) << as_json.out;
+  EXPECT_EQ(notes[0].get<std::string>().rfind("1 dof with a speed limit above 100 rad/s or m/s", 0), 0u) << notes;
   const CliRun paper = wbm_cli("model info");
   EXPECT_EQ(paper.out.find("note:"), std::string::npos) << paper.out;
   const CliRun g1 = wbm_cli("model info '" + wbm_test::shipped_model("g1_29dof").path + "'");
@@ -105,7 +109,13 @@ TEST(Cli, ModelInfoNotesLegsThatDoNotPointDown) {
     EXPECT_EQ(r.status, 0) << r.err;
     EXPECT_NE(r.out.find(expected), std::string::npos) << rpy << ": " << r.out;
     EXPECT_NE(r.out.find("give its orientation with --root-rpy"), std::string::npos) << r.out;
+    const json notes = parse(wbm_cli(g1_info + " --root-rpy " + rpy + " --json"))["notes"];
+    ASSERT_EQ(notes.size(), 1u) << notes;
+    EXPECT_EQ(notes[0].get<std::string>(), r.out.substr(r.out.find("note: the legs") + 6,
+                                                         r.out.find('\n', r.out.find("note: the legs")) -
+                                                             r.out.find("note: the legs") - 6));
   }
+  EXPECT_EQ(parse(wbm_cli(g1_info + " --json"))["notes"], json::array());
   // Tilted by less than 45 degrees the legs still point down; dropped legs say nothing.
   EXPECT_EQ(wbm_cli(g1_info + " --root-rpy 0,0.7,0").out.find("note: the legs"), std::string::npos);
   EXPECT_EQ(wbm_cli(g1_info + " --root-rpy 0,1.5707963,0 --drop-legs").out.find("note: the legs"), std::string::npos);
