@@ -22,6 +22,9 @@
 #   controller  both hands converge to 0.1 mm and 0.1 deg on reachable targets, allocating
 #               nothing in the cycles
 #
+# After the tests' summary line: `wbm model info`'s notes on the file, if any (legs that do not
+# point down, placeholder speed limits; docs/model.md), when the command-line tool is built.
+#
 # The flags are those of scripts/bench.sh (the hands: a frame per arm, e.g. a palm or the
 # last wrist link; without --head no view axis; --fixed-base: the controller tests start
 # with the base upright and keep the nine virtual dofs frozen, as for a robot on a pedestal). Exit status 0 when every test passed, 1
@@ -35,11 +38,13 @@ source "$(dirname "$0")/lib/flags.sh"  # now in the repository's root
 build_dir="${BUILD_DIR:-build}"
 urdf=""
 env_vars=()
+info_flags=()  # the model flags `wbm model info` takes, for its notes
 
 while [[ $# -gt 0 ]]; do
   model_flag "$@"
   if [[ $model_shift -gt 0 ]]; then  # WBM_TEST_HANDS=..., WBM_TEST_DROP_LEGS=1, ...
     env_vars+=("WBM_TEST_${model_key^^}=${model_value:-1}")
+    case "$model_key" in hands|head|fixed_base) ;; *) info_flags+=("${@:1:$model_shift}") ;; esac
     shift "$model_shift"
     continue
   fi
@@ -61,8 +66,10 @@ has_prefix WBM_TEST_HANDS= "${env_vars[@]}" ||
 
 binaries=(test_kinematics test_kdl test_solver test_controller)
 configure_build "$build_dir" -DWBM_BUILD_BENCHMARKS=OFF
-echo "check_model: building ${binaries[*]} in $build_dir" >&2
-cmake --build "$build_dir" --target "${binaries[@]}" -j"$(nproc)" >/dev/null
+targets=("${binaries[@]}")
+[[ ! -x "$build_dir/wbm" ]] || targets+=(wbm_cli)  # for the notes at the end (not in a tests-only build)
+echo "check_model: building ${targets[*]} in $build_dir" >&2
+cmake --build "$build_dir" --target "${targets[@]}" -j"$(nproc)" >/dev/null
 
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
@@ -79,4 +86,10 @@ for b in "${binaries[@]}"; do
   [[ $rc -eq 0 ]] || status=1
 done
 python3 tests/check_model_summary.py "$urdf" "${binaries[@]/#/$out/}" || status=1
+# What imports and computes right but may not be what the file means (a root link turned
+# without --root-rpy, placeholder speed limits): `wbm model info`'s notes, docs/model.md.
+if [[ -x "$build_dir/wbm" ]]; then
+  "$build_dir/wbm" model info "$urdf" "${info_flags[@]}" --json 2>/dev/null |
+    python3 -c 'import json, sys; [print("note: " + n) for n in json.load(sys.stdin)["notes"]]' || true
+fi
 exit $status

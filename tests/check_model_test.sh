@@ -25,6 +25,14 @@ for name in Kinematics.JacobiansMatchFiniteDifferences/user Kinematics.JacobianT
   grep -q "^  passed  $name " "$work/out.txt" || { cat "$work/out.txt"; fail "no passed line for $name"; }
 done
 grep -Eq '^(1[6-9]|[2-9][0-9]) passed, [0-9]+ skipped, 0 failed$' "$work/out.txt" || { cat "$work/out.txt"; fail "summary"; }
+! grep -q '^note:' "$work/out.txt" || { cat "$work/out.txt"; fail "a note on NAO as it is"; }
+# ... and turned by pitch pi/2 without saying so (the root height given, so the import's
+# check of the legs' depth is skipped): the tests pass, the note says the legs point backward.
+scripts/check_model.sh "$work/my robot/nao.urdf" --hands l_gripper,r_gripper --legs LPelvis,RPelvis \
+  --root-rpy 0,1.5707963,0 --root-height 0.3 --build-dir "$build_dir" >"$work/out_turned.txt" 2>&1 || rc=$?
+[[ $rc -eq 0 ]] || { cat "$work/out_turned.txt"; fail "turned NAO: exit $rc"; }
+grep -q "^note: the legs point backward rather than down at zero joint values" "$work/out_turned.txt" ||
+  { cat "$work/out_turned.txt"; fail "turned NAO: no note"; }
 
 # 2. A robot on a fixed base whose URDF has no masses (no centre of mass to check), in a copy
 # with xacro leftovers beside its links and joints (--ignore-xacro-elements; KDL's parser
