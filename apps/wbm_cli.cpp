@@ -153,12 +153,17 @@ std::string speed_limit_note(const wbm::Model& model) {
 
 /// What `model info` notes about a file that imports but may not be what its author meant,
 /// said where a user checks a file (text: "note: ..." lines; --json: "notes").
-std::vector<std::string> model_notes(const ModelSource& source, const wbm::Model& model) {
+/// @param from_urdf false for the built-in paper model (no notes); legs: the import's legs.
+std::vector<std::string> model_notes(const wbm::Model& model, bool from_urdf, const std::vector<std::string>& legs) {
   std::vector<std::string> notes;
-  if (source.file.empty()) return notes;
-  for (const std::string& note : {speed_limit_note(model), legs_direction_note(model, source.urdf.legs)})
+  if (!from_urdf) return notes;
+  for (const std::string& note : {speed_limit_note(model), legs_direction_note(model, legs)})
     if (!note.empty()) notes.push_back(note);
   return notes;
+}
+
+std::vector<std::string> model_notes(const ModelSource& source, const wbm::Model& model) {
+  return model_notes(model, !source.file.empty(), source.urdf.legs);
 }
 
 int model_info(ModelSource& source, bool as_json) {
@@ -332,6 +337,8 @@ int run_scenarios(const std::vector<std::string>& files, const std::string& out,
     wbm::RunOptions options;
     options.progress = true;
     const auto run = wbm::run_scenario(s, options);
+    for (const std::string& note : model_notes(*run->model, !s.urdf.empty(), s.urdf_options.legs))
+      std::cerr << "  note: " << note << "\n";
     wbm::write_outputs(*run, dir, !no_report);
     const json summary = wbm::summarize(*run);
     for (const auto& [name, e] : summary["elements"].items()) {

@@ -436,6 +436,29 @@ TEST(Cli, RunWithAnOutputNameTooLongFails) {
 // The run's last lines say how balance and walking ended, not only the task errors: a
 // centre of mass left outside the feet, or a walk still going, is what a user looks for;
 // and how close the joints came to their limits.
+// wbm run says the model's notes too: G1 turned by pitch pi/2 (its root height given) runs,
+// lying on its back, and the run says why; the same robot as it is gets no note.
+TEST(Cli, RunSaysTheModelsNotes) {
+  const std::string base = testing::TempDir() + "wbm_cli_notes_" + std::to_string(getpid());
+  const std::string g1 = wbm_test::shipped_model("g1_29dof").path;
+  const std::string robot = "robot: {urdf: '" + g1 + "', legs: [left_hip_pitch_link, right_hip_pitch_link]";
+  const std::string rest = "duration: 0.05\nfrozen: [heel_x, heel_y, heel_yaw]\n"
+                           "tasks: [{name: a, type: position, frame: left_rubber_hand}]\n";
+  std::ofstream(base + "_turned.yaml") << "name: turned\n" << robot << ", root_rpy: [0, 1.5707963, 0], root_height: 0.8}\n" << rest;
+  std::ofstream(base + "_plain.yaml") << "name: plain\n" << robot << "}\n" << rest;
+  const CliRun r = wbm_cli("run '" + base + "_turned.yaml' '" + base + "_plain.yaml' --out '" + base + "_dir' --no-report");
+  EXPECT_EQ(r.status, 0) << r.err;
+  const size_t turned = r.err.find("scenario turned"), plain = r.err.find("scenario plain");
+  ASSERT_TRUE(turned != std::string::npos && plain != std::string::npos) << r.err;
+  EXPECT_NE(r.err.substr(turned, plain - turned).find("  note: the legs point backward rather than down"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(r.err.substr(plain).find("note:"), std::string::npos) << r.err;
+  std::filesystem::remove_all(base + "_dir");
+  std::remove((base + "_turned.yaml").c_str());
+  std::remove((base + "_plain.yaml").c_str());
+}
+
 TEST(Cli, RunSaysHowBalanceAndWalkingEnded) {
   const std::string base = testing::TempDir() + "wbm_cli_balance_" + std::to_string(getpid());
   const std::string inside = base + "_in.yaml", outside = base + "_out.yaml", walk = base + "_walk.yaml";
