@@ -16,6 +16,7 @@
 #include <Eigen/SVD>
 
 #include "closest_names.hpp"
+#include "model_notes.hpp"
 #include "report_writer.hpp"
 #include "wbm/balance.hpp"
 #include "wbm/errors.hpp"
@@ -441,6 +442,7 @@ json summarize(const ScenarioRun& run) {
   out["dt"] = s.dt;
   out["duration"] = s.duration;
   out["cycles"] = K - 1;
+  out["model_notes"] = model_notes(model, !s.urdf.empty(), s.urdf_options.legs);
   json elements = json::object();
   for (int i = 0; i < static_cast<int>(s.tasks.size()); ++i) {
     const std::string& type = run.element_types[i];

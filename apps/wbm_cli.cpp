@@ -14,6 +14,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include "model_notes.hpp"
 #include "runner.hpp"
 #include "scenario.hpp"
 #include "wbm/errors.hpp"
@@ -86,84 +87,8 @@ json matrix_json(const Eigen::MatrixXd& M) {
   return rows;
 }
 
-/// A note when the locked legs point more forward, backward or sideways than down
-/// at zero joint values in wbm's upper-body frame (x forward, z up; the base upright), or "":
-/// the sign of a root link turned by pitch or roll pi/2 without --root-rpy. The import refuses
-/// legs whose lowest link is less than a tenth of their length below the root, but legs turned
-/// forward may still reach that far down (Poppy's by pitch pi/2: 7 of 39 cm), and a given root
-/// height skips that check. The legs' vectors (first link to farthest link) are summed, so that
-/// legs splayed to both sides cancel; legs bent at zero (a crouching robot's) can show too.
-std::string legs_direction_note(const wbm::Model& model, const std::vector<std::string>& legs) {
-  wbm::Data data(model);
-  wbm::forward_kinematics(model, data, wbm::upright_base_configuration(model, model.home()));
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  int counted = 0;
-  for (const std::string& leg : legs) {
-    const int first = model.find_frame(leg);
-    if (first < 0) continue;  // dropped (--drop-legs)
-    const Eigen::Vector3d origin = wbm::frame_position(model, data, first);
-    Eigen::Vector3d farthest = Eigen::Vector3d::Zero();
-    for (int f = 0; f < model.num_frames(); ++f) {
-      int above = f;
-      while (above >= 0 && above != first) above = model.frame(above).parent;
-      const Eigen::Vector3d d = wbm::frame_position(model, data, f) - origin;
-      if (above == first && d.norm() > farthest.norm()) farthest = d;
-    }
-    sum += farthest;
-    ++counted;
-  }
-  if (counted == 0) return "";
-  const Eigen::Vector3d mean = sum / counted;
-  const double horizontal = std::hypot(mean.x(), mean.y());
-  if (!(horizontal > -mean.z())) return "";
-  const char* where = std::abs(mean.x()) >= std::abs(mean.y()) ? (mean.x() > 0 ? "forward" : "backward")
-                                                                  : (mean.y() > 0 ? "to the left" : "to the right");
-  const Eigen::Vector3d shown = mean.unaryExpr([](double v) { return std::abs(v) < 0.005 ? 0.0 : v; });  // no "-0.00"
-  std::ostringstream note;
-  note << std::fixed << std::setprecision(2) << "the legs point " << where
-       << " rather than down at zero joint values (from their first link to their farthest, on average " << shown.x()
-       << " m forward, " << shown.y() << " m left, " << shown.z()
-       << " m up, in wbm's upper-body frame: x forward, y left, z up): if the root link's x axis is not forward or "
-          "its z axis not up, give its orientation with --root-rpy (docs/model.md); legs bent at zero can show this "
-          "too";
-  return note.str();
-}
-
-/// A note when speed limits look like placeholders, or "": a URDF's <limit velocity> taken at
-/// its word (1e9 in ergoCub's files) leaves the speed limits, the braking before position
-/// limits and the bound on the rates' change (all proportional to it) without effect.
-std::string speed_limit_note(const wbm::Model& model) {
-  constexpr double kImplausibleSpeed = 100.0;  // rad/s or m/s; G1's fastest joints: 37 rad/s
-  int implausible = 0;
-  int fastest = -1;
-  for (int i = 0; i < model.num_dofs(); ++i)
-    if (model.dof(i).max_speed > kImplausibleSpeed) {
-      ++implausible;
-      if (fastest < 0 || model.dof(i).max_speed > model.dof(fastest).max_speed) fastest = i;
-    }
-  if (implausible == 0) return "";
-  std::ostringstream note;
-  note << implausible << " dof" << (implausible == 1 ? "" : "s") << " with a speed limit above " << kImplausibleSpeed
-       << " rad/s or m/s (the largest: '" << model.dof(fastest).name << "', " << model.dof(fastest).max_speed
-       << "): the speed limits, the braking before position limits and the bound on the rates' change are "
-          "proportional to it and will hardly act; if the URDF's <limit velocity> is a placeholder, give the real "
-          "speeds";
-  return note.str();
-}
-
-/// What `model info` notes about a file that imports but may not be what its author meant,
-/// said where a user checks a file (text: "note: ..." lines; --json: "notes").
-/// @param from_urdf false for the built-in paper model (no notes); legs: the import's legs.
-std::vector<std::string> model_notes(const wbm::Model& model, bool from_urdf, const std::vector<std::string>& legs) {
-  std::vector<std::string> notes;
-  if (!from_urdf) return notes;
-  for (const std::string& note : {speed_limit_note(model), legs_direction_note(model, legs)})
-    if (!note.empty()) notes.push_back(note);
-  return notes;
-}
-
 std::vector<std::string> model_notes(const ModelSource& source, const wbm::Model& model) {
-  return model_notes(model, !source.file.empty(), source.urdf.legs);
+  return wbm::model_notes(model, !source.file.empty(), source.urdf.legs);
 }
 
 int model_info(ModelSource& source, bool as_json) {
@@ -337,10 +262,9 @@ int run_scenarios(const std::vector<std::string>& files, const std::string& out,
     wbm::RunOptions options;
     options.progress = true;
     const auto run = wbm::run_scenario(s, options);
-    for (const std::string& note : model_notes(*run->model, !s.urdf.empty(), s.urdf_options.legs))
-      std::cerr << "  note: " << note << "\n";
     wbm::write_outputs(*run, dir, !no_report);
     const json summary = wbm::summarize(*run);
+    for (const json& note : summary["model_notes"]) std::cerr << "  note: " << note.get<std::string>() << "\n";
     for (const auto& [name, e] : summary["elements"].items()) {
       std::cerr << "  " << name << ": ";
       if (e["final_error"].is_null()) std::cerr << "inactive at the end\n";

@@ -1186,6 +1186,34 @@ TEST(Scenarios, IgnoreXacroElementsIsTheImportOption) {
   std::remove(file.c_str());
 }
 
+// A robot whose root link is turned without robot.root_rpy (its legs point backward) runs;
+// summary.json's model_notes and the report's summary table say so; as it is, no note.
+TEST(Scenarios, TheModelsNotesAreInTheSummaryAndTheReport) {
+  const std::string g1 = wbm_test::shipped_model("g1_29dof").path;
+  const std::string robot = "robot: {urdf: '" + g1 + "', legs: [left_hip_pitch_link, right_hip_pitch_link]";
+  const std::string rest = "duration: 0.02\nfrozen: [heel_x, heel_y, heel_yaw]\n"
+                           "tasks: [{name: a, type: position, frame: left_rubber_hand}]\n";
+  const auto turned = run_scenario(
+      parse_scenario("name: t\n" + robot + ", root_rpy: [0, 1.5707963, 0], root_height: 0.8}\n" + rest, "t.yaml", "."));
+  const nlohmann::json notes = summarize(*turned)["model_notes"];
+  ASSERT_EQ(notes.size(), 1u) << notes;
+  EXPECT_EQ(notes[0].get<std::string>().rfind("the legs point backward rather than down", 0), 0u) << notes;
+  int rows = 0;
+  const nlohmann::json report = report_data(*turned);  // kept: a range-for over a temporary's member dangles
+  for (const auto& row : report["summary"])
+    if (row[0] == "note on the model") {
+      EXPECT_EQ(row[1], notes[0]);
+      ++rows;
+    }
+  EXPECT_EQ(rows, 1);
+  const auto plain = run_scenario(parse_scenario("name: p\n" + robot + "}\n" + rest, "p.yaml", "."));
+  EXPECT_EQ(summarize(*plain)["model_notes"], nlohmann::json::array());
+  EXPECT_EQ(summarize(*run_scenario(parse_scenario("name: x\n" + rest.substr(0, rest.find("tasks")) +
+                                                   "tasks: [{name: a, type: position, frame: l_hand_ref}]\n",
+                                                   "x.yaml", ".")))["model_notes"],
+            nlohmann::json::array());
+}
+
 // root_rpy's range is load_urdf's rule: its message, at the scenario's robot line.
 TEST(Scenarios, RootRpyOutOfRangeNamesTheRobotLine) {
   const std::string g1 = wbm_test::shipped_model("g1_29dof").path;
