@@ -76,12 +76,13 @@ class UrdfChecker {
     check_tree();
   }
 
-  /// Unexpanded xacro in a top-level element `e` of <robot>. By default every xacro element
-  /// is an error. With ignore_xacro_elements, top-level ones are skipped (as urdfdom and
-  /// kdl_parser skip every element they do not know) unless they hold a <link> or <joint>,
-  /// which would be missing from the model; a xacro element inside a link, joint or
-  /// material (e.g. `<xacro:insert_block name="origin"/>`) is an error either way, since it
-  /// stands for part of that element.
+  /// Unexpanded xacro in a top-level element `e` of <robot>. A xacro element directly below
+  /// <robot> is an error unless ignore_xacro_elements is set; then it is skipped (as urdfdom
+  /// and kdl_parser skip every element they do not know) unless it makes a <link> or <joint>,
+  /// which would be missing from the model. A xacro element inside a link, joint or material
+  /// (e.g. `<xacro:insert_block name="origin"/>`) is an error either way, since it stands for
+  /// part of that element; one inside any other element (<gazebo>, <transmission>), which wbm
+  /// and urdfdom do not read, is passed over either way.
   void check_xacro(const TiXmlElement* e) const {
     const std::string tag = e->Value();
     const bool shapes_the_model = tag == "link" || tag == "joint" || tag == "material";
@@ -98,12 +99,11 @@ class UrdfChecker {
                                "with xacro first");
       return;
     }
-    if (const TiXmlElement* inner = first_xacro_below(e))
-      if (shapes_the_model || !options_.ignore_xacro_elements)
+    if (shapes_the_model)
+      if (const TiXmlElement* inner = first_xacro_below(e))
         fail(inner->Row(), "<" + std::string(inner->Value()) + "> inside <" + tag + "> (line " +
                                std::to_string(e->Row()) + ") is a xacro element: expand the file first (`xacro " +
-                               "robot.urdf.xacro > robot.urdf`, ROS's xacro)" +
-                               (shapes_the_model ? "" : ", or import with ignore_xacro_elements (--ignore-xacro-elements)"));
+                               "robot.urdf.xacro > robot.urdf`, ROS's xacro)");
   }
 
   static bool is_xacro(const TiXmlElement* e) { return std::string(e->Value()).rfind("xacro:", 0) == 0; }

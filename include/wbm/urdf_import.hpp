@@ -53,13 +53,14 @@ struct UrdfImportOptions {
   std::array<double, 2> upper_body_x_range = {-0.02, 0.14};
   /// Same for the sideways shift (upper_body_y) [m].
   std::array<double, 2> upper_body_y_range = {-0.08, 0.08};
-  /// A file with xacro elements (`<xacro:include>`, `<xacro:macro>`, ...) is an error
-  /// unless this is set; then the elements directly below <robot> are skipped, as urdfdom
+  /// A file with xacro elements (`<xacro:include>`, `<xacro:macro>`, ...) directly below
+  /// <robot> is an error unless this is set; then they are skipped, as urdfdom
   /// and kdl_parser skip what they do not know: for a .urdf whose links and joints are all
   /// written out beside a few xacro leftovers (e.g. NEXTAGE OPEN's, whose macros only add
   /// Gazebo and transmission tags). Still an error: such an element holding a <link> or
   /// <joint> (they would be missing), a xacro element inside a link, joint or material, and
   /// a `${...}` expression where wbm reads a name or number. An included file is not read.
+  /// (Xacro elements inside other elements, e.g. <gazebo>, are passed over either way.)
   bool ignore_xacro_elements = false;
 };
 
