@@ -521,9 +521,10 @@ void print_tables(const TableReporter& rep, const std::vector<FixtureSpec>& fixt
     header = true;
     const double judged = interleaved ? paired.peer_ratio() : a.p50_us / b.p50_us;
     std::printf("  %-10s KDL wdls (same tree) / wbm = ", id);
-    if (separate) std::printf("%.1fx (separate runs)%s", a.p50_us / b.p50_us, interleaved ? ", " : "");
+    // Two decimals: at one, 19.96x printed as "20.0x ... MISSED".
+    if (separate) std::printf("%.2fx (separate runs)%s", a.p50_us / b.p50_us, interleaved ? ", " : "");
     if (interleaved)
-      std::printf("%.1fx (paired: %.2f / %.2f us)", paired.peer_ratio(), paired.peer_p50_us,
+      std::printf("%.2fx (paired: %.2f / %.2f us)", paired.peer_ratio(), paired.peer_p50_us,
                   paired.p50_us);
     std::printf(" >= 20x: %s\n", judged >= 20.0 ? "met" : "MISSED");
   }
