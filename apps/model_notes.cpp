@@ -47,8 +47,8 @@ std::string legs_direction_note(const Model& model, const std::vector<std::strin
        << " rather than down at zero joint values (from their first link to their farthest, on average " << shown.x()
        << " m forward, " << shown.y() << " m left, " << shown.z()
        << " m up, in wbm's upper-body frame: x forward, y left, z up): if the root link's x axis is not forward or "
-          "its z axis not up, give its orientation with --root-rpy (docs/model.md); legs bent at zero can show this "
-          "too";
+          "its z axis not up, give its orientation with --root-rpy (in a scenario robot.root_rpy; docs/model.md); legs bent at "
+          "zero can show this too";
   return note.str();
 }
 
@@ -73,9 +73,6 @@ std::string speed_limit_note(const Model& model) {
           "speeds";
   return note.str();
 }
-
-/// What `model info` notes about a file that imports but may not be what its author meant,
-/// said where a user checks a file (text: "note: ..." lines; --json: "notes").
 
 }  // namespace
 

@@ -723,7 +723,7 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
     // before, and the robot stood on its head. Only a tenth: legs may splay or fold (random
     // H1 variants: 0.57 m down with 2.0 m long legs), and a root turned by pitch pi/2 (legs
     // forward, 0.07 of 0.39 m down on Poppy) is not told from such a robot (`wbm model info`
-    // notes legs that point more sideways than down: apps/wbm_cli.cpp).
+    // notes legs that point more sideways than down: apps/model_notes.cpp).
     const double depth = -tree.lowest_leg_z_;
     if (depth > 0.0 && depth < 0.1 * tree.leg_length_) {
       std::ostringstream msg;
