@@ -59,8 +59,8 @@ std::string join(const std::vector<std::string>& names) {
 /// The user's robot (scripts/check_model.sh): WBM_TEST_URDF=PATH, WBM_TEST_HANDS=LEFT,RIGHT
 /// (frames), optional WBM_TEST_HEAD (frame), WBM_TEST_LEGS=A,B, WBM_TEST_ROOT (links),
 /// WBM_TEST_ROOT_HEIGHT (m), WBM_TEST_ROOT_RPY=R,P,Y (rad), WBM_TEST_UPPER_BODY_X_RANGE=LO,HI and
-/// WBM_TEST_UPPER_BODY_Y_RANGE=LO,HI (m), WBM_TEST_DEFAULT_LIMITS=1, WBM_TEST_DROP_LEGS=1,
-/// WBM_TEST_FIXED_BASE=1. Its id, in test names, is "user".
+/// WBM_TEST_UPPER_BODY_Y_RANGE=LO,HI (m), WBM_TEST_DEFAULT_LIMITS=1, WBM_TEST_IGNORE_XACRO_ELEMENTS=1,
+/// WBM_TEST_DROP_LEGS=1, WBM_TEST_FIXED_BASE=1. Its id, in test names, is "user".
 ShippedModel model_from_environment() {
   ShippedModel m;
   m.id = "user";
