@@ -36,6 +36,8 @@ import sys
 import tempfile
 import xml.etree.ElementTree as ET
 
+from out_of_reach_probe import require_program
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BAD_NUMBERS = ["nan", "inf", "-inf", "1e400", "-1", "", "abc", "1 2", "0 0 0", "1e-320", "1e308 1e308 1e308",
                "NaN NaN NaN", "0 0", "1 2 3 4", "  ", "-0", "1,2,3", "0x10", "1e5"]
@@ -135,6 +137,7 @@ def main():
     parser.add_argument("--urdfs", type=int, default=200, help="URDF cases")
     parser.add_argument("--scenarios", type=int, default=200, help="scenario cases")
     options = parser.parse_args()
+    require_program(options.wbm, "mutated_inputs.py")
     out = options.out or tempfile.mkdtemp(prefix="mutated_inputs_")
     os.makedirs(out, exist_ok=True)
     rng = random.Random(options.seed)

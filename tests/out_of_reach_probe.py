@@ -82,6 +82,12 @@ AXIS_CASES = {"view": None, "held": (0, 0, 0), "far": (0.6, 0, 0.2)}
 ATTITUDE_TURNS = {"pitched": (0, 3, 1), "turned": (-2, -2, 2), "rolled": (3, 0, 0)}
 
 
+def require_program(path, script):
+    """Exits with a message naming `path` unless it is an executable file (the command-line tool)."""
+    if not (os.path.isfile(path) and os.access(path, os.X_OK)):
+        sys.exit(f"{script}: {path}: no such program (the command-line tool is build/wbm after scripts/setup.sh)")
+
+
 def scenario(name, robot, offset, balance):
     urdf, options, left, right, left_foot, right_foot = robot
     x, y, z = offset
@@ -209,6 +215,7 @@ def main():
     if options.axes and options.check:
         parser.error("--check with --axes: not every one of those runs comes to rest (docs/solver.md)")
     wbm = options.wbm
+    require_program(wbm, "out_of_reach_probe.py")
     out = options.out or tempfile.mkdtemp(prefix="wbm_out_of_reach_")
     check = options.check
     os.makedirs(out, exist_ok=True)

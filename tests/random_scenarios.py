@@ -284,6 +284,7 @@ def main():
         first, end = (int(x) for x in options.seeds.split(":"))
     except ValueError:
         sys.exit(f"random_scenarios.py: --seeds {options.seeds}: expected A:B, two whole numbers")
+    probe.require_program(options.wbm, "random_scenarios.py")
     out = options.out or tempfile.mkdtemp(prefix="random_scenarios_")
     os.makedirs(out, exist_ok=True)
     generator = Generator(options.wbm, out, options.random_robots)
