@@ -44,7 +44,8 @@
  * }
  *
  * When the 3D view and every chart have been drawn once, window.wbmReady is
- * set to true (and window.wbmDrawingScale holds the scale of the drawn robot). Errors are reported with console.error and shown on the page.
+ * set to true (and window.wbmDrawingScale holds the scale of the drawn robot,
+ * window.wbmPlotValueRanges() each chart's value axis as [min, max]). Errors are reported with console.error and shown on the page.
  */
 (function () {
   'use strict';
@@ -640,6 +641,14 @@
     return a !== 0 && (a < 1e-3 || a >= 1e5) ? v.toExponential(3) : v.toFixed(4);
   }
 
+  // The value axis: uPlot's default (10 % padding, rounded, zero included when near), but
+  // a plot whose values are all zero (a null-space cost while no joint is near a limit)
+  // gets 0 to 1 instead of uPlot's 0 to 100, which suggested values up to 100.
+  function valueRange(u, min, max) {
+    if (min === 0 && max === 0) return [0, 1];
+    return uPlot.rangeNum(min, max, 0.1, true);
+  }
+
   function createPlots(container, data, onSeek) {
     const charts = [];
     const firstDraws = [];
@@ -671,7 +680,7 @@
         title: plot.title ? String(plot.title) : `Plot ${p + 1}`,
         width: Math.max(card.clientWidth, 200),
         height: PLOT_HEIGHT,
-        scales: { x: { time: false } },
+        scales: { x: { time: false }, y: { range: valueRange } },
         series,
         axes: [
           { label: 'time (s)' },
@@ -733,6 +742,7 @@
         }
       },
       drawn: Promise.all(firstDraws),
+      valueRanges: () => charts.map((chart) => [chart.u.scales.y.min, chart.u.scales.y.max]),
     };
   }
 
@@ -819,6 +829,7 @@
     if (data.plots.length) document.getElementById('plots-section').hidden = false;
     const plots = createPlots(document.getElementById('plots'), data, (t) => player && player.seekTime(t));
     player = createPlayer(data, view, plots, legendUpdate);
+    window.wbmPlotValueRanges = plots.valueRanges;  // for tests (web/test/check_report.mjs)
 
     plots.drawn.then(() => requestAnimationFrame(() => { window.wbmReady = true; }));
   }

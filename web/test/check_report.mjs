@@ -6,8 +6,9 @@
 // Fails (exit 1) on: a console error or page error; a request to anything but
 // the report file itself; window.wbmReady not set within 20 s; a blank 3D
 // view; fewer drawn uPlot charts than plots in the data (exactly K with
-// --expect-plots); a 3D image that does not change when the time slider moves
-// to the end; with --expect-scale, a scale of the drawn robot (links, spheres,
+// --expect-plots); a value axis that does not hold its plot's values, or that
+// spreads a flat plot over more than max(2, 4 |value|); a 3D image that does
+// not change when the time slider moves to the end; with --expect-scale, a scale of the drawn robot (links, spheres,
 // arrows: window.wbmDrawingScale) outside [MIN, MAX]. The screenshot (full page)
 // is taken with the slider at the middle.
 
@@ -218,6 +219,35 @@ try {
       (options.expectPlots === null ? ` (plots in the data)` : ` (--expect-plots)`) +
       (problems.length ? `; ${problems.join('; ')}` : '');
     return [countOk && problems.length === 0, detail];
+  });
+
+  await runCheck('value axes fit the data', async () => {
+    const ranges = await page.evaluate(() => window.wbmPlotValueRanges());
+    const data = await page.evaluate(() => JSON.parse(document.getElementById('wbm-data').textContent));
+    const problems = [];
+    let flat = 0;
+    (data.plots || []).forEach((plot, i) => {
+      let low = Infinity;
+      let high = -Infinity;
+      for (const s of plot.series) {
+        for (const v of s.values) {
+          if (v === null) continue;
+          low = Math.min(low, v);
+          high = Math.max(high, v);
+        }
+      }
+      if (low > high) return;  // no values
+      const [min, max] = ranges[i] ?? [NaN, NaN];
+      if (!(min <= low && high <= max)) problems.push(`"${plot.title}": ${low} to ${high} outside ${min} to ${max}`);
+      if (low === high) {
+        flat++;
+        // A flat series gets a little room around it, not uPlot's 0 to 100 for zeros.
+        if (!(max - min <= Math.max(2, 4 * Math.abs(low)))) {
+          problems.push(`"${plot.title}": all ${low}, shown from ${min} to ${max}`);
+        }
+      }
+    });
+    return [problems.length === 0, `${ranges.length} charts, ${flat} flat` + (problems.length ? `; ${problems.join('; ')}` : '')];
   });
 
   if (options.expectScale) {
