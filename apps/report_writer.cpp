@@ -256,8 +256,10 @@ std::string render_report(const ScenarioRun& run) {
                      std::to_string(summary["max_joint_acceleration_to_bound"]["ratio"].get<double>()) + " (" +
                          summary["max_joint_acceleration_to_bound"]["dof"].get<std::string>() + ")"});
   table.push_back({"min distance to a joint limit",
-                   std::to_string(summary["min_distance_to_limit"]["value"].get<double>()) + " (" +
-                       summary["min_distance_to_limit"]["dof"].get<std::string>() + ")"});
+                   summary.contains("min_distance_to_limit")
+                       ? std::to_string(summary["min_distance_to_limit"]["value"].get<double>()) + " (" +
+                             summary["min_distance_to_limit"]["dof"].get<std::string>() + ")"
+                       : std::string("none: no joint has position limits")});
   if (summary.contains("balance")) {
     const json& b = summary["balance"];
     char text[160];

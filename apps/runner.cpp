@@ -499,7 +499,10 @@ json summarize(const ScenarioRun& run) {
   if (k_rate > 0.0)
     out["max_joint_acceleration_to_bound"] = {{"ratio", max_acc_ratio}, {"dof", model.dof(acc_ratio_dof).name},
                                               {"bound", k_rate * model.dof(acc_ratio_dof).max_speed}};
-  out["min_distance_to_limit"] = {{"value", std::isfinite(min_limit) ? min_limit : 0.0}, {"dof", model.dof(limit_dof).name}};
+  // Left out where no joint has position limits (every one continuous): a 0 there read as a
+  // dof on its limit.
+  if (std::isfinite(min_limit))
+    out["min_distance_to_limit"] = {{"value", min_limit}, {"dof", model.dof(limit_dof).name}};
   std::vector<double> us(run.cycle_us.begin() + 1, run.cycle_us.end());
   std::sort(us.begin(), us.end());
   if (!us.empty()) {

@@ -236,8 +236,8 @@ def broken_promises(directory, info):
     problems = []
     with open(os.path.join(directory, "summary.json"), encoding="utf-8") as f:
         summary = json.load(f)
-    limit = summary["min_distance_to_limit"]
-    if limit["value"] < -1e-9:
+    limit = summary.get("min_distance_to_limit")  # absent where no joint has position limits
+    if limit and limit["value"] < -1e-9:
         problems.append(f"{limit['dof']} {-limit['value']:.3g} beyond its limit")
     speed = summary["max_joint_speed"]
     if info["limit_speeds"] and speed["ratio_to_limit"] > 1 + 1e-9:
