@@ -47,7 +47,8 @@ struct ModelSource {
         ->delimiter(',')
         ->expected(3);
     app.add_flag("--default-limits", urdf.default_limits,
-                 "give joints without limits [-pi, pi] rad, 2 rad/s ([-1, 1] m, 0.5 m/s prismatic)");
+                 "give joints without limits [-pi, pi] rad, 2 rad/s ([-1, 1] m, 0.5 m/s prismatic); "
+                 "continuous joints keep no position limits and get 2 rad/s where they have no speed limit");
     app.add_flag("--ignore-xacro-elements", urdf.ignore_xacro_elements,
                  "skip xacro elements below <robot> (a .urdf whose links and joints are all written out), as "
                  "urdfdom does");

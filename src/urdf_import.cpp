@@ -48,6 +48,12 @@ struct Located {
 
 struct JointInfo : Located {
   std::string type, parent, child, mimic;
+  /// A missing position range or speed limit, found with legs given: an error only if the
+  /// joint becomes a dof (a locked or dropped leg's joint never moves). line 0: none.
+  struct {
+    int line = 0;
+    std::string message;
+  } missing_limit;
 };
 
 /// Structural check of the XML with line numbers, before urdfdom builds the model.
@@ -312,14 +318,22 @@ class UrdfChecker {
     joints_.push_back(j);
   }
 
-  void check_limits(const TiXmlElement* e, const JointInfo& j, const std::string& what) const {
+  /// A limit the joint lacks: an error at once, or with legs given recorded in `j` for the
+  /// import to raise if the joint becomes a dof (parse_urdf).
+  void missing_limit(JointInfo& j, int line, const std::string& message) const {
+    if (options_.legs.empty()) fail(line, message);
+    if (j.missing_limit.line == 0) j.missing_limit = {line, message};
+  }
+
+  void check_limits(const TiXmlElement* e, JointInfo& j, const std::string& what) const {
     const TiXmlElement* limit = e->FirstChildElement("limit");
     const bool bounded = j.type != "continuous";
     if (limit == nullptr) {
+      // urdfdom rejects this one (without a line) even in a leg: an error at once.
       if (bounded && !options_.default_limits)
         fail(j.line, what + " (" + j.type + ") has no <limit>; add one or import with default limits (default_limits, --default-limits)");
       if (!bounded && j.mimic.empty() && !options_.default_limits)
-        fail(j.line, what + " (continuous) has no <limit velocity=...>; add one or import with default limits (default_limits, --default-limits)");
+        missing_limit(j, j.line, what + " (continuous) has no <limit velocity=...>; add one or import with default limits (default_limits, --default-limits)");
       return;
     }
     const double lower = limit->Attribute("lower") ? numbers(limit, "lower", 1, what)[0] : 0.0;
@@ -341,10 +355,10 @@ class UrdfChecker {
       fail(limit->Row(), msg.str());
     }
     if (bounded && lower == upper && j.mimic.empty() && !options_.default_limits)
-      fail(limit->Row(), what + ": no position range (lower == upper); give lower < upper or import with default limits (default_limits, --default-limits)");
+      missing_limit(j, limit->Row(), what + ": no position range (lower == upper); give lower < upper or import with default limits (default_limits, --default-limits)");
     const double velocity = limit->Attribute("velocity") ? numbers(limit, "velocity", 1, what)[0] : 0.0;
     if (velocity <= 0.0 && j.mimic.empty() && !options_.default_limits)
-      fail(limit->Row(), what + ": no speed limit (<limit velocity> must be > 0); add one or import with default limits (default_limits, --default-limits)");
+      missing_limit(j, limit->Row(), what + ": no speed limit (<limit velocity> must be > 0); add one or import with default limits (default_limits, --default-limits)");
   }
 
   void check_tree() {
@@ -751,8 +765,11 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
   // Number the dofs in body order; mimic joints share their master's dof.
   std::map<std::string, int> dof_of_joint;
   for (const BodySpec& spec : tree.specs_)
-    if (spec.joint && !spec.joint->mimic)
+    if (spec.joint && !spec.joint->mimic) {
+      const auto& missing = checker.joint(spec.joint->name).missing_limit;
+      if (missing.line != 0) checker.fail(missing.line, missing.message);
       dof_of_joint[spec.joint->name] = builder.add_dof(dof_from_joint(*spec.joint, checker, options));
+    }
   for (size_t i = 1; i < tree.specs_.size(); ++i) {
     Body body = tree.specs_[i].body;
     const urdf::Joint& joint = *tree.specs_[i].joint;

@@ -1,6 +1,7 @@
 // Catalogue of malformed URDF files (tests/data/malformed/): each must raise a ParseError
 // whose message names the file, the line and the problem, and the CLI must exit non-zero
 // with that message on stderr.
+#include <algorithm>
 #include <array>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -22,6 +23,7 @@
 #include "cli_runner.hpp"
 
 #include "shipped_models.hpp"
+#include "test_util.hpp"
 #include "wbm/errors.hpp"
 #include "wbm/kinematics.hpp"
 #include "wbm/urdf_import.hpp"
@@ -335,6 +337,47 @@ TEST(UrdfErrors, DroppingLegsNeedsTheLegs) {
   }
   options.legs = {"LPelvis", "RPelvis"};
   EXPECT_NO_THROW(wbm::load_urdf(wbm_test::source_path("models/third_party/nao/nao.urdf"), options));
+}
+
+// A locked or dropped leg's joints never move, so they need no speed limit or position range
+// (NimbRo-OP's URDF gives its arms limits and its legs none): with legs given, a missing
+// limit is an error only for a joint that becomes a dof, at the same line as without legs.
+TEST(UrdfErrors, LockedLegJointsNeedNoLimits) {
+  const std::string xml = wbm_test::read_file(wbm_test::source_path("models/third_party/nao/nao.urdf"));
+  // The file with one joint's speed limit set to 0 (its <limit> element is unique in it).
+  const auto without_speed = [&](const std::string& limit) {
+    std::string edited = xml;
+    const size_t at = edited.find(limit);
+    EXPECT_NE(at, std::string::npos) << limit;
+    const size_t speed = limit.find("velocity=");
+    return edited.replace(at + speed, limit.size() - speed, "velocity=\"0\"/>");
+  };
+  const std::string knee = without_speed(R"(<limit effort="3.023" lower="-0.0923279" upper="2.11255" velocity="6.40239"/>)");
+  const std::string elbow = without_speed(R"(<limit effort="1.532" lower="-1.54462" upper="-0.0349066" velocity="7.19407"/>)");
+  const auto line_of = [](const std::string& text, const std::string& what) {
+    return 1 + std::count(text.begin(), text.begin() + text.find(what), '\n');
+  };
+  const std::string knee_line = std::to_string(line_of(knee, R"(velocity="0")"));
+  const std::string elbow_line = std::to_string(line_of(elbow, R"(velocity="0")"));
+  wbm::UrdfImportOptions options;
+  const auto message = [&](const std::string& text) {
+    try {
+      wbm::parse_urdf(text, options, "nao_edited.urdf");
+    } catch (const wbm::ParseError& e) {
+      return std::string(e.what());
+    }
+    return std::string("(loaded)");
+  };
+  EXPECT_EQ(message(knee).rfind("nao_edited.urdf:" + knee_line + ": joint 'LKneePitch': no speed limit", 0), 0u)
+      << message(knee);
+  options.legs = {"LPelvis", "RPelvis"};
+  EXPECT_EQ(message(knee), "(loaded)");
+  EXPECT_EQ(message(elbow).rfind("nao_edited.urdf:" + elbow_line + ": joint 'LElbowRoll': no speed limit", 0), 0u)
+      << message(elbow);
+  options.leg_mode = wbm::LegMode::kDrop;
+  EXPECT_EQ(message(knee), "(loaded)");
+  EXPECT_EQ(message(elbow).rfind("nao_edited.urdf:" + elbow_line + ": joint 'LElbowRoll': no speed limit", 0), 0u)
+      << message(elbow);
 }
 
 // A written-out .urdf with xacro leftovers beside its links and joints (as NEXTAGE OPEN's:

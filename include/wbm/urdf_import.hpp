@@ -38,7 +38,8 @@ struct UrdfImportOptions {
   Vector3 root_rpy = Vector3::Zero();
   /// Joints whose URDF lacks a position range (lower == upper) or, if not a mimic joint, a
   /// speed limit are an error unless this is set; then revolute joints get [-pi, pi] and
-  /// 2 rad/s, prismatic joints [-1, 1] m and 0.5 m/s.
+  /// 2 rad/s, prismatic joints [-1, 1] m and 0.5 m/s; continuous joints keep no position
+  /// limits and get 2 rad/s where they have no speed limit.
   bool default_limits = false;
   /// Range [lower, upper] of the upper body's forward shift over the heel frame (upper_body_x)
   /// [m]; the heel frame's origin lies on the floor at the feet's back edge. It stands for how
