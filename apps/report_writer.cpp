@@ -270,6 +270,7 @@ std::string render_report(const ScenarioRun& run) {
       table.push_back({"balance: upper-body shift at its limit", describe_shift_at_limit(a, b["balanced_cycles"].get<int>())});
   }
   for (const json& note : summary["model_notes"]) table.push_back({"note on the model", note});
+  for (const json& note : summary["task_notes"]) table.push_back({"note on a task", note});
   if (summary.contains("cycle_time_us"))
     table.push_back({"cycle time median / p99 [us]", std::to_string(summary["cycle_time_us"]["median"].get<double>()) + " / " +
                                                          std::to_string(summary["cycle_time_us"]["p99"].get<double>())});

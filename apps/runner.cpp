@@ -17,6 +17,7 @@
 
 #include "closest_names.hpp"
 #include "model_notes.hpp"
+#include "task_notes.hpp"
 #include "report_writer.hpp"
 #include "wbm/balance.hpp"
 #include "wbm/errors.hpp"
@@ -325,6 +326,27 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
   ControllerStatus last_status;
   std::uint32_t walking_flags = 0;
 
+  {  // Elements no free dof can move (apps/task_notes.hpp): the dofs free at the start or
+     // released by an event count, and those balance (the upper body's shift) and walking
+     // (the heel) drive; elements active at the start or switched on by an event.
+    std::vector<bool> ever_free(model.num_dofs());
+    for (int i = 0; i < model.num_dofs(); ++i) ever_free[i] = cmd.free_dofs[i];
+    for (const Resolved& r : events)
+      for (const int d : r.release) ever_free[d] = true;
+    const VirtualDofs& v = model.virtual_dofs();
+    for (const int d : {v.ub_x, v.ub_y})
+      if (balance && d >= 0) ever_free[d] = true;
+    for (const int d : {v.heel_x, v.heel_y, v.heel_yaw})
+      if (walking && d >= 0) ever_free[d] = true;
+    std::vector<bool> considered(stack.num_elements());
+    for (int e = 0; e < stack.num_elements(); ++e) {
+      considered[e] = s.tasks[e].active;
+      for (const Resolved& r : events)
+        for (const int row : r.on)
+          considered[e] = considered[e] || (row >= stack.row_offset(e) && row < stack.row_offset(e) + stack.element(e).dim());
+    }
+    run->task_notes = immovable_task_notes(model, stack, ever_free, considered, c.q());
+  }
   if (options.check_only) return run;
   const int n_el = stack.num_elements();
   auto record = [&](double t, std::uint32_t flags, double us) {
@@ -443,6 +465,7 @@ json summarize(const ScenarioRun& run) {
   out["duration"] = s.duration;
   out["cycles"] = K - 1;
   out["model_notes"] = model_notes(model, !s.urdf.empty(), s.urdf_options.legs);
+  out["task_notes"] = run.task_notes;
   json elements = json::object();
   for (int i = 0; i < static_cast<int>(s.tasks.size()); ++i) {
     const std::string& type = run.element_types[i];

@@ -266,6 +266,7 @@ int run_scenarios(const std::vector<std::string>& files, const std::string& out,
     wbm::write_outputs(*run, dir, !no_report);
     const json summary = wbm::summarize(*run);
     for (const json& note : summary["model_notes"]) std::cerr << "  note: " << note.get<std::string>() << "\n";
+    for (const json& note : summary["task_notes"]) std::cerr << "  note: " << note.get<std::string>() << "\n";
     for (const auto& [name, e] : summary["elements"].items()) {
       std::cerr << "  " << name << ": ";
       if (e["final_error"].is_null()) std::cerr << "inactive at the end\n";
