@@ -102,8 +102,17 @@ int Model::dof_index(const std::string& name) const {
   if (i >= 0) return i;
   std::vector<std::string> names;
   for (const Dof& d : dofs_) names.push_back(d.name);
-  throw ModelError("model " + quoted(name_) + " has no dof named " + quoted(name) + internal::did_you_mean(name, names) +
-                   listed("dofs", names));
+  // A joint of the robot's description that is not a dof: say which kind, since its name is
+  // in the user's URDF (a leg joint that --legs locked, NimbRo's or Atlas's knee, say).
+  std::string kind;
+  for (const Frame& f : frames_)
+    if (!name.empty() && f.joint_name == name)
+      kind = " (" + quoted(name) + " is a fixed joint of the model: a welded link's, or a locked leg's (legs, --legs))";
+  for (const Body& b : bodies_)
+    if (!name.empty() && b.joint_name == name && b.dof >= 0 && dofs_[b.dof].name != name)
+      kind = " (" + quoted(name) + " is a mimic joint: it follows dof " + quoted(dofs_[b.dof].name) + ")";
+  throw ModelError("model " + quoted(name_) + " has no dof named " + quoted(name) + kind +
+                   (kind.empty() ? internal::did_you_mean(name, names) : "") + listed("dofs", names));
 }
 
 int Model::frame_index(const std::string& name) const {

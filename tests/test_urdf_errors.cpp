@@ -196,6 +196,32 @@ TEST(UrdfImportErrors, MisspeltLinkNamesSuggestTheClosest) {
   }
 }
 
+// A joint of the URDF that is not a dof is named as what it is: a locked leg's (or any fixed)
+// joint, or a mimic joint with its master (scenario and command-line errors pass it on).
+TEST(UrdfImportErrors, AJointThatIsNoDofSaysWhatItIs) {
+  wbm::UrdfImportOptions options;
+  options.legs = {"LPelvis", "RPelvis"};
+  const wbm::Model nao = wbm::load_urdf(wbm_test::source_path("models/third_party/nao/nao.urdf"), options);
+  const auto message = [&](const std::string& name) {
+    try {
+      nao.dof_index(name);
+    } catch (const wbm::ModelError& e) {
+      return std::string(e.what());
+    }
+    return std::string("(found)");
+  };
+  EXPECT_NE(message("LKneePitch").find("has no dof named 'LKneePitch' ('LKneePitch' is a fixed joint of the model: a "
+                                       "welded link's, or a locked leg's (legs, --legs)); dofs are:"),
+            std::string::npos)
+      << message("LKneePitch");
+  EXPECT_NE(message("RFinger11").find("has no dof named 'RFinger11' ('RFinger11' is a mimic joint: it follows dof "
+                                      "'RHand'); dofs are:"),
+            std::string::npos)
+      << message("RFinger11");
+  EXPECT_NE(message("RHan").find("has no dof named 'RHan' (did you mean 'RHand'?)"), std::string::npos) << message("RHan");
+  EXPECT_EQ(message("RHand"), "(found)");
+}
+
 TEST_P(MalformedUrdf, ThrowsParseErrorNamingFileAndLine) {
   const Case& c = GetParam();
   try {
