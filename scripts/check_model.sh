@@ -76,9 +76,12 @@ trap 'rm -rf "$out"' EXIT
 status=0
 for b in "${binaries[@]}"; do
   echo "check_model: ${b#test_} ..." >&2
-  # Only the tests on the user's robot: their names end in /user.
+  # Only the tests on the user's robot: their names end in /user. MimicModelsShareDofs checks
+  # a shipped model against what it is known to hold, which a user's is not: it would only say
+  # "skipped" (KdlComparison checks the user's mimic joints).
   set +e
-  env "WBM_TEST_URDF=$urdf" "${env_vars[@]}" "$build_dir/tests/$b" --gtest_filter='*/user' --gtest_brief=1 \
+  env "WBM_TEST_URDF=$urdf" "${env_vars[@]}" "$build_dir/tests/$b" \
+    --gtest_filter='*/user:-*/Kinematics.MimicModelsShareDofs/user' --gtest_brief=1 \
     --gtest_output="json:$out/$b" | grep -v '^Running main()'
   rc=${PIPESTATUS[0]}
   set -e
