@@ -493,6 +493,9 @@ class TreeBuilder {
   std::map<std::string, std::string> parent_of_;
   double lowest_leg_z_ = std::numeric_limits<double>::infinity();
   std::string lowest_leg_link_;
+  /// Height of each link's origin above the root link's in the upper-body frame, at zero
+  /// joint values (dropped legs' links too).
+  std::map<std::string, double> z_;
   /// The legs' length: the largest distance of a leg's link from its first link.
   double leg_length_ = 0.0;
 
@@ -506,6 +509,7 @@ class TreeBuilder {
   void visit(const std::string& link_name, int body, const Transform& X_BL, const Transform& X_RL,
              const JointInfo* from, Mode mode, const std::string& parent) {
     const urdf::Link& link = *urdf_.links_.at(link_name);
+    z_[link_name] = X_RL.p.z();
     if (mode != Mode::kDropped) {
       if (!parent.empty()) parent_of_[link_name] = parent;
       if (!(specs_[body].body.name == link_name && X_BL.p.isZero() && X_BL.R.isIdentity())) {
@@ -749,6 +753,12 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
     }
     height = depth;
   }
+  // No legs and no height given: a massless root link cut off below the root (a fixed-base
+  // robot's base_link or world on the ground, as Pepper's 0.33 m below its Tibia) is put on
+  // the ground, where the file and ROS tools have it; otherwise (a world link at the root,
+  // or above it) 1 m.
+  if (std::isnan(height) && options.root.empty() && root != checker.root() && tree.z_.at(checker.root()) < -1e-6)
+    height = -tree.z_.at(checker.root());
   if (std::isnan(height)) height = 1.0;
   if (!(height > 0.0))
     throw ParseError(source + ": the root height above the ground must be > 0 m (the legs' lowest link is not below the "

@@ -799,6 +799,42 @@ TEST(UrdfImport, RootRpyTurnsTheRootAsAWeldedTurnedRootLinkWould) {
 
 // Finite angles within [-2 pi, 2 pi] only; a root link lying on its side without root_rpy
 // gets a hint when its legs are not below it.
+// Without legs or a given height, a massless root link cut off below the root (a base_link
+// on the floor, as Pepper's 0.33 m below its Tibia) is put on the ground: the root stands at
+// its height above it. A world link at the root (models/dual_arm's) or above it leaves the
+// default 1 m, as does a root given by name; legs and a given height decide before.
+TEST(UrdfImport, ACutOffRootLinkBelowTheRootIsOnTheGround) {
+  const std::string xml = wbm_test::read_file(wbm_test::source_path("models/dual_arm/dual_arm.urdf"));
+  const std::string at_root = R"(<child link="base"/>
+    <origin xyz="0 0 0" rpy="0 0 0"/>)";
+  ASSERT_NE(xml.find(at_root), std::string::npos);
+  const auto with_base_at = [&](const std::string& xyz) {
+    std::string edited = xml;
+    return edited.replace(edited.find(at_root), at_root.size(),
+                          "<child link=\"base\"/>\n    <origin xyz=\"" + xyz + "\" rpy=\"0 0 0\"/>");
+  };
+  const auto height = [](const std::string& text, const wbm::UrdfImportOptions& options) {
+    const Model model = wbm::parse_urdf(text, options, "dual_arm_edited.urdf");
+    Data data(model);
+    wbm::forward_kinematics(model, data, wbm::upright_base_configuration(model, model.home()));
+    return std::make_pair(wbm::frame_position(model, data, model.frame_index("base")).z(),
+                          wbm::frame_position(model, data, model.frame_index("world")).z());
+  };
+  const wbm::UrdfImportOptions plain;
+  const auto [raised_root, raised_world] = height(with_base_at("0 0 0.75"), plain);
+  EXPECT_NEAR(raised_root, 0.75, 1e-12);
+  EXPECT_NEAR(raised_world, 0.0, 1e-12);  // the world link on the ground
+  EXPECT_NEAR(height(with_base_at("0.2 0 0.75"), plain).first, 0.75, 1e-12);  // only the height counts
+  EXPECT_NEAR(height(xml, plain).first, 1.0, 1e-12);                          // at the root: 1 m
+  EXPECT_NEAR(height(with_base_at("0 0 -0.3"), plain).first, 1.0, 1e-12);     // above the root: 1 m
+  wbm::UrdfImportOptions given = plain;
+  given.root_height = 0.9;
+  EXPECT_NEAR(height(with_base_at("0 0 0.75"), given).first, 0.9, 1e-12);
+  wbm::UrdfImportOptions named = plain;
+  named.root = "base";
+  EXPECT_NEAR(height(with_base_at("0 0 0.75"), named).first, 1.0, 1e-12);
+}
+
 TEST(UrdfImport, RootRpyOutOfRangeIsAnError) {
   const ShippedModel& g1 = wbm_test::shipped_model("g1_29dof");
   for (const Vector3& rpy : {Vector3(0.0, 0.0, std::nan("")), Vector3(7.0, 0.0, 0.0), Vector3(0.0, -1e300, 0.0)}) {

@@ -28,7 +28,9 @@ struct UrdfImportOptions {
   std::vector<std::string> legs;
   LegMode leg_mode = LegMode::kLock;  ///< kDrop needs `legs` (else ParseError).
   /// Height of the root link origin above the ground [m]. NaN: from the legs (the lowest
-  /// leg link origin at zero joint values), else 1 m.
+  /// leg link origin at zero joint values); without legs, where `root` is not given and the
+  /// URDF's root link is a massless link cut off below the root (a base_link on the ground),
+  /// the root's height above it; else 1 m.
   double root_height = std::numeric_limits<double>::quiet_NaN();
   /// Orientation of the root link in wbm's upper-body frame (x forward, y left, z up, REP
   /// 103), as URDF roll, pitch, yaw [rad]: zero for a root link that follows REP 103;
