@@ -211,6 +211,24 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
   const Model& model = *run->model;
   run->controller = std::make_unique<Controller>(model, s.solver);
   Controller& c = *run->controller;
+  {  // Names the model lacks in `initial`, `frozen` and the tasks: the first in the file is
+     // reported (frozen on line 6 before a task on line 9), whatever order they are used in.
+    std::vector<std::pair<int, std::string>> errors;
+    const auto check = [&](int line, const std::string& field, const auto& lookup) {
+      try {
+        bound(s, line, field, lookup);
+      } catch (const Error& e) {
+        errors.emplace_back(line, e.what());
+      }
+    };
+    for (size_t i = 0; i < s.tasks.size(); ++i)
+      check(s.tasks[i].line, "tasks[" + std::to_string(i) + "]", [&] { return make_element(model, s.tasks[i]); });
+    for (const auto& entry : s.initial)
+      check(s.initial_line, "initial", [&] { return model.dof_index(entry.first); });
+    for (const std::string& d : s.frozen) check(s.frozen_line, "frozen", [&] { return model.dof_index(d); });
+    const auto by_line = [](const auto& a, const auto& b) { return a.first < b.first; };
+    if (!errors.empty()) throw ConfigError(std::min_element(errors.begin(), errors.end(), by_line)->second);
+  }
   for (size_t i = 0; i < s.tasks.size(); ++i) {
     const ScenarioTask& t = s.tasks[i];
     bound(s, t.line, "tasks[" + std::to_string(i) + "]", [&] { return c.add_task(make_element(model, t), t.filter); });

@@ -1172,6 +1172,14 @@ TEST(Scenarios, UnknownNamesInTheTimelineAreReportedBeforeRunning) {
        "bad.yaml:2: initial: configuration value 5 of dof 'l_elbow' is outside [-2.4, 0]"},
       {"name: x\nfeet: {left_frame: nope, right_frame: r_hand}\ntasks: [{name: a, type: position, frame: l_hand_ref}]\n",
        "bad.yaml:2: feet: model 'paper_asimo_like' has no frame named 'nope'"},
+      // Two bad names: the first in the file, whichever is used first (tasks are built first).
+      {"name: x\nfrozen: [heel_x, nope]\ntasks: [{name: a, type: position, frame: no_frame}]\n",
+       "bad.yaml:2: frozen: model 'paper_asimo_like' has no dof named 'nope'"},
+      {"name: x\ntasks: [{name: a, type: position, frame: no_frame}]\nfrozen: [heel_x, nope]\ninitial: {nope: 0.1}\n",
+       "bad.yaml:2: tasks[0]: model 'paper_asimo_like' has no frame named 'no_frame'"},
+      {"name: x\ntasks:\n  - {name: a, type: position, frame: l_hand_ref}\n  - {name: b, type: axis, frame: no_frame}\n"
+       "initial: {nope: 0.1}\n",
+       "bad.yaml:4: tasks[1]: model 'paper_asimo_like' has no frame named 'no_frame'"},
       // Values the library refuses: its message, with the scenario's line.
       {"name: x\ntasks:\n  - {name: a, type: axis, frame: head_camera, axis: [0, 0, 0]}\n",
        "bad.yaml:3: tasks[0]: axis task 'a': the axis in frame 'head_camera' must be a finite, non-zero vector"},
