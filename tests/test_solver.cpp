@@ -553,20 +553,33 @@ TEST_P(EveryModel, TaskElementJacobiansMatchFiniteDifferencesOfTheirValues) {
     e.value(model, data, x);
     return x;
   };
+  // The attitude's Kardan angles are singular at pitch +-90 deg (gimbal lock): their rates
+  // grow as 1 / cos(pitch), and so do the higher derivatives that make the central
+  // difference's error. Within 0.05 of it (2.9 deg) the attitude is not compared: Cassie's
+  // all-continuous legs reach a toe 0.0009 rad from gimbal lock (difference off by 0.12,
+  // its Jacobian right, as every other test of it showed). Most cases stay compared.
+  int attitude_skipped = 0;
   for (int c = 0; c < 200; ++c) {
     const VectorXd q = wbm_test::random_configuration(model, rng);
     const VectorXd v = wbm_test::random_direction(model.num_dofs(), rng);
     for (auto& e : elements) {
       const VectorXd x = value_at(*e, q);
+      if (e->name() == "a" && std::abs(std::cos(x[1])) < 0.05) {
+        ++attitude_skipped;
+        continue;
+      }
       MatrixXd J(e->dim(), model.num_dofs());
       VectorXd err(e->dim()), rate(e->dim());
       e->evaluate(model, data, x, VectorXd::Zero(e->target_dim()), J, err, rate);
       const double h = 1e-6;
       VectorXd fd = (value_at(*e, q + h * v) - value_at(*e, q - h * v)) / (2 * h);
-      ASSERT_LT((fd - J * v).norm(), 1e-6 * (1 + fd.norm())) << entry.id << " " << e->name() << " case " << c;
+      ASSERT_LT((fd - J * v).norm(), 1e-6 * (1 + fd.norm()))
+          << entry.id << " element " << e->name() << " case " << c << ", value " << x.transpose()
+          << "\n  q = " << q.transpose() << "\n  v = " << v.transpose();
       ASSERT_LT(err.norm(), 1e-12) << entry.id << " " << e->name();  // zero error at its own value
     }
   }
+  EXPECT_LT(attitude_skipped, 20) << entry.id << ": the attitude mostly near gimbal lock";
 }
 
 TEST(AxisTask, DegenerateCasesAreDefinedAndContinuous) {
