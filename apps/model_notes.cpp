@@ -60,14 +60,14 @@ std::string speed_limit_note(const Model& model) {
   int implausible = 0;
   int fastest = -1;
   for (int i = 0; i < model.num_dofs(); ++i)
-    if (model.dof(i).max_speed > kImplausibleSpeed) {
+    if (model.dof(i).max_speed >= kImplausibleSpeed) {  // 100 itself is a round placeholder (iCub's)
       ++implausible;
       if (fastest < 0 || model.dof(i).max_speed > model.dof(fastest).max_speed) fastest = i;
     }
   if (implausible == 0) return "";
   std::ostringstream note;
-  note << implausible << " dof" << (implausible == 1 ? "" : "s") << " with a speed limit above " << kImplausibleSpeed
-       << " rad/s or m/s (the largest: '" << model.dof(fastest).name << "', " << model.dof(fastest).max_speed
+  note << implausible << " dof" << (implausible == 1 ? "" : "s") << " with a speed limit of " << kImplausibleSpeed
+       << " rad/s or m/s or more (the largest: '" << model.dof(fastest).name << "', " << model.dof(fastest).max_speed
        << "): the speed limits, the braking before position limits and the bound on the rates' change are "
           "proportional to it and will hardly act; if the URDF's <limit velocity> is a placeholder, give the real "
           "speeds";

@@ -12,7 +12,7 @@ namespace wbm {
 
 /// The notes on a model, each one sentence without a "note: " prefix; empty for the built-in
 /// paper model (`from_urdf` false) and for a file with nothing to note. Two kinds: speed
-/// limits above 100 rad/s or m/s (placeholders such as 1e9, under which the speed limits, the
+/// limits of 100 rad/s or m/s or more (placeholders such as 1e9 or a round 100, under which the speed limits, the
 /// braking before position limits and the bound on the rates' change hardly act), and locked
 /// legs (`legs`: the import's first leg links; dropped ones are skipped) that point more
 /// forward, backward or sideways than down with the base upright (a root link turned without

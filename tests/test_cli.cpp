@@ -60,21 +60,23 @@ TEST(Cli, ModelInfoNotesImplausibleSpeedLimits) {
   std::ofstream(file) << "<?xml version=\"1.0\"?>\n<robot name=\"fast\">\n"
                          "<link name=\"base\"><inertial><mass value=\"1\"/>"
                          "<inertia ixx=\"0.1\" ixy=\"0\" ixz=\"0\" iyy=\"0.1\" iyz=\"0\" izz=\"0.1\"/></inertial></link>\n"
-                         "<link name=\"a\"/><link name=\"b\"/>\n"
+                         "<link name=\"a\"/><link name=\"b\"/><link name=\"c\"/>\n"
                          "<joint name=\"slow\" type=\"revolute\"><parent link=\"base\"/><child link=\"a\"/><axis xyz=\"0 0 1\"/>"
                          "<limit lower=\"-1\" upper=\"1\" effort=\"1\" velocity=\"30\"/></joint>\n"
                          "<joint name=\"fast\" type=\"revolute\"><parent link=\"a\"/><child link=\"b\"/><axis xyz=\"0 1 0\"/>"
-                         "<limit lower=\"-1\" upper=\"1\" effort=\"1\" velocity=\"1e9\"/></joint>\n</robot>\n";
+                         "<limit lower=\"-1\" upper=\"1\" effort=\"1\" velocity=\"1e9\"/></joint>\n"
+                         "<joint name=\"round\" type=\"revolute\"><parent link=\"b\"/><child link=\"c\"/><axis xyz=\"1 0 0\"/>"
+                         "<limit lower=\"-1\" upper=\"1\" effort=\"1\" velocity=\"100\"/></joint>\n</robot>\n";
   const CliRun r = wbm_cli("model info '" + file + "' --root-height 1");
   const CliRun as_json = wbm_cli("model info '" + file + "' --root-height 1 --json");
   std::remove(file.c_str());
   EXPECT_EQ(r.status, 0) << r.err;
-  EXPECT_NE(r.out.find("note: 1 dof with a speed limit above 100 rad/s or m/s (the largest: 'fast', 1e+09)"),
+  EXPECT_NE(r.out.find("note: 2 dofs with a speed limit of 100 rad/s or m/s or more (the largest: 'fast', 1e+09)"),
             std::string::npos)
       << r.out;
   const json notes = parse(as_json)["notes"];  // the same notes for scripts
   ASSERT_EQ(notes.size(), 1u) << as_json.out;
-  EXPECT_EQ(notes[0].get<std::string>().rfind("1 dof with a speed limit above 100 rad/s or m/s", 0), 0u) << notes;
+  EXPECT_EQ(notes[0].get<std::string>().rfind("2 dofs with a speed limit of 100 rad/s or m/s or more", 0), 0u) << notes;
   const CliRun paper = wbm_cli("model info");
   EXPECT_EQ(paper.out.find("note:"), std::string::npos) << paper.out;
   const CliRun g1 = wbm_cli("model info '" + wbm_test::shipped_model("g1_29dof").path + "'");
