@@ -565,6 +565,17 @@ json summarize(const ScenarioRun& run) {
     counts[name] = count;
   }
   out["status_cycles"] = counts;
+  // Why a target may be left unmet at the end: the last cycle damped (near a singularity, a
+  // target out of reach) and the joints at a position limit (within 1e-6 rad or m).
+  json joints_at_limit = json::array();
+  for (int i = 0; i < n; ++i) {
+    const Dof& d = model.dof(i);
+    if (d.continuous || d.role != DofRole::kJoint || K == 0) continue;
+    const double q = run.q.back()[i];
+    if (q - d.lower < 1e-6) joints_at_limit.push_back({{"dof", d.name}, {"limit", "lower"}});
+    else if (d.upper - q < 1e-6) joints_at_limit.push_back({{"dof", d.name}, {"limit", "upper"}});
+  }
+  out["at_end"] = {{"damped", K > 0 && (run.flags.back() & kDamped) != 0}, {"dofs_at_limit", joints_at_limit}};
   if (!run.walking.empty()) {
     int walks = 0;
     for (size_t k = 1; k < run.walking.size(); ++k) walks += (run.walking[k][3] > 0.0 && run.walking[k - 1][3] == 0.0) ? 1 : 0;

@@ -1343,6 +1343,28 @@ TEST(Scenarios, ATargetFarOutOfReachHasAFiniteErrorAndMotion) {
   EXPECT_GT(moved.dot(Eigen::Vector3d(1.0, 1.0, 0.0).normalized()), 0.05) << moved.transpose();
 }
 
+// Why a target is left unmet, for the console line "last cycle: ...": summary.json's at_end
+// says whether the last cycle was damped and which joints sit at a position limit (a Jaco
+// hand stopped 37.6 mm short with a shoulder at its limit, and only the error was printed).
+TEST(Scenarios, TheSummarySaysWhatHeldTheLastCycle) {
+  const std::string head = "name: x\nduration: 3\nfrozen: [heel_x, heel_y, heel_yaw]\n"
+                           "tasks: [{name: a, type: position, frame: l_hand_ref}, {name: j, type: joints, dofs: [l_elbow]}]\n";
+  const auto at_end = [&](const std::string& timeline) {
+    return summarize(*run_scenario(parse_scenario(head + timeline, "x.yaml", ".")))["at_end"];
+  };
+  // The elbow driven past its lower limit: held there, the joint row damped.
+  const nlohmann::json held = at_end("timeline: [{t: 0.05, activate: [j], relative_targets: {j: [-5]}}]\n");
+  EXPECT_TRUE(held["damped"].get<bool>()) << held;
+  EXPECT_EQ(held["dofs_at_limit"], nlohmann::json::parse(R"([{"dof": "l_elbow", "limit": "lower"}])")) << held;
+  // The hand 2 m out: the stretched arm damped, no joint at a limit.
+  const nlohmann::json far = at_end("timeline: [{t: 0.05, activate: [a], relative_targets: {a: [0, 2, 0]}}]\n");
+  EXPECT_TRUE(far["damped"].get<bool>()) << far;
+  // Reached: nothing held it.
+  const nlohmann::json reached = at_end("timeline: [{t: 0.05, activate: [a], relative_targets: {a: [0.05, 0, 0.05]}}]\n");
+  EXPECT_FALSE(reached["damped"].get<bool>()) << reached;
+  EXPECT_EQ(reached["dofs_at_limit"], nlohmann::json::array()) << reached;
+}
+
 TEST(Scenarios, CheckOnlyBuildsEverythingAndSimulatesNothing) {
   const Scenario s = parse_scenario(
       "name: x\nduration: 2\ntasks: [{name: a, type: position, frame: l_hand_ref}]\ntimeline:\n  - t: 0.5\n"
