@@ -858,10 +858,20 @@ void Fixture::check_wbm() {
                            : custom && (mostly_damped || often_limited) ? 2.5 * kHandAmplitude
                            : mostly_damped                              ? 0.5 * kHandAmplitude
                                                                         : 5e-3;
+  // The failure says what held the hands: on a user's robot most often a home pose (the centre
+  // of every joint range) with the arms stretched, where every cycle is damped (Agibot G1's
+  // hands 1.1 m out to the sides: 0.048 m travelled, and the message said nothing of why).
   if (!(travelled > 0.05 && tracking < tolerance))
-    throw std::runtime_error(spec.id + ": wbm controller does not track: max hand position error to the filtered target " +
-                             fmt("%.2g m", tracking) + " (limit " + fmt("%.2g m", tolerance) +
-                             "), first element travelled " + fmt("%.3f", travelled) + " (at least 0.05)");
+    throw std::runtime_error(
+        spec.id + ": wbm controller does not track: max hand position error to the filtered target " +
+        fmt("%.2g m", tracking) + " (limit " + fmt("%.2g m", tolerance) + "), first element travelled " +
+        fmt("%.3f", travelled) + " (at least 0.05); of the moving cycles damped " + fmt("%.0f %%", 100.0 * damped / cycles) +
+        ", a dof frozen at its limit " + fmt("%.0f %%", 100.0 * frozen / cycles) +
+        most_often_at_speed_limit(*model, at_speed_limit, cycles) +
+        (custom && mostly_damped ? ". The motions start from the robot's home pose, the centre of every joint range: arms "
+                                   "stretched there (a singularity) keep the hands from moving; a scenario (wbm run, "
+                                   "initial:) can start elsewhere"
+                                 : ""));
   if (overdetermined_set)
     note("WARNING: " + spec.id + ": more task rows (" + std::to_string(controller->tasks().num_rows()) +
          ") than free dofs: no configuration meets them all; the timed cycles run the damped compromise (hands " +
