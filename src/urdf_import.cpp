@@ -757,8 +757,10 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
   // robot's base_link or world on the ground, as Pepper's 0.33 m below its Tibia) is put on
   // the ground, where the file and ROS tools have it; otherwise (a world link at the root,
   // or above it) 1 m.
-  if (std::isnan(height) && options.root.empty() && root != checker.root() && tree.z_.at(checker.root()) < -1e-6)
-    height = -tree.z_.at(checker.root());
+  // (A floating joint from the world link cuts the tree there: the link is not visited.)
+  const auto cut = tree.z_.find(checker.root());
+  if (std::isnan(height) && options.root.empty() && root != checker.root() && cut != tree.z_.end() && cut->second < -1e-6)
+    height = -cut->second;
   if (std::isnan(height)) height = 1.0;
   if (!(height > 0.0))
     throw ParseError(source + ": the root height above the ground must be > 0 m (the legs' lowest link is not below the "

@@ -833,6 +833,14 @@ TEST(UrdfImport, ACutOffRootLinkBelowTheRootIsOnTheGround) {
   wbm::UrdfImportOptions named = plain;
   named.root = "base";
   EXPECT_NEAR(height(with_base_at("0 0 0.75"), named).first, 1.0, 1e-12);
+  // A floating joint from the world link (a free-standing robot's export) cuts the tree there:
+  // 1 m (the lookup of the unvisited link threw std::out_of_range, "map::at", once).
+  std::string floating = with_base_at("0 0 0.75");
+  const std::string fixed = R"(name="world_to_base" type="fixed")";
+  ASSERT_NE(floating.find(fixed), std::string::npos);
+  floating.replace(floating.find(fixed), fixed.size(), R"(name="world_to_base" type="floating")");
+  const Model free_standing = wbm::parse_urdf(floating, plain, "dual_arm_floating.urdf");
+  EXPECT_NEAR(free_standing.dof(free_standing.virtual_dofs().ub_z).upper, 1.0, 1e-12);
 }
 
 TEST(UrdfImport, RootRpyOutOfRangeIsAnError) {
