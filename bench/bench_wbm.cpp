@@ -71,22 +71,46 @@ std::vector<std::string> split(const std::string& s, char sep) {
 
 /// "; the ends of FILE's tree: a b c" (the frames on bodies without children that three
 /// or more of the robot's own joints move: the ends of the arms, and of the legs unless
-/// locked), or why the URDF does not load; for the error of a missing --hands.
+/// locked), or why the URDF does not load; for the error of a missing --hands. A hand's
+/// fingers are shown as the body they branch from (a palm): the first body above an end with
+/// two or more children, if it is moved by three or more joints and no end below it lies
+/// more than four joints deeper (Valkyrie's fingers made about 50 ends; the torso, where
+/// the arms branch, has the arms' ends seven joints below it).
 std::string arm_ends(const std::string& urdf, const wbm::UrdfImportOptions& options) {
+  constexpr int kMinArmJoints = 3, kMaxFingerJoints = 4;
   try {
     const wbm::Model model = wbm::load_urdf(urdf, options);
-    std::vector<bool> has_child(model.num_bodies(), false);
+    std::vector<int> children(model.num_bodies(), 0);
     for (int b = 0; b < model.num_bodies(); ++b)
-      if (model.body(b).parent >= 0) has_child[model.body(b).parent] = true;
-    std::string ends;
-    for (const wbm::Frame& f : model.frames()) {
-      if (has_child[f.body]) continue;
+      if (model.body(b).parent >= 0) ++children[model.body(b).parent];
+    const auto moves = [&](int b) {  // one of the robot's own joints moves body b
+      return model.body(b).dof >= 0 && model.dof(model.body(b).dof).role == wbm::DofRole::kJoint;
+    };
+    std::vector<int> depth(model.num_bodies(), 0);  // joints from the body down to its deepest end
+    for (int b = model.num_bodies() - 1; b >= 0; --b)  // children come after their parents
+      if (model.body(b).parent >= 0)
+        depth[model.body(b).parent] = std::max(depth[model.body(b).parent], depth[b] + moves(b));
+    const auto joints_above = [&](int body) {
       int joints = 0;
-      for (const int b : model.moving_bodies(f.body))
-        joints += model.body(b).dof >= 0 && model.dof(model.body(b).dof).role == wbm::DofRole::kJoint;
-      if (joints >= 3) ends += " " + f.name;
+      for (const int b : model.moving_bodies(body)) joints += moves(b);
+      return joints;
+    };
+    std::vector<std::string> ends;
+    const auto add = [&](const std::string& name) {
+      if (std::find(ends.begin(), ends.end(), name) == ends.end()) ends.push_back(name);
+    };
+    for (const wbm::Frame& f : model.frames()) {
+      if (children[f.body] > 0 || joints_above(f.body) < kMinArmJoints) continue;
+      int branch = model.body(f.body).parent;
+      while (branch >= 0 && children[branch] < 2) branch = model.body(branch).parent;
+      if (branch >= 0 && depth[branch] <= kMaxFingerJoints && joints_above(branch) >= kMinArmJoints)
+        add(model.body(branch).name);
+      else
+        add(f.name);
     }
-    return ends.empty() ? "" : "; the ends of " + urdf + "'s tree:" + ends;
+    std::string list;
+    for (const std::string& name : ends) list += " " + name;
+    return ends.empty() ? "" : "; the ends of " + urdf + "'s tree:" + list;
   } catch (const std::exception& e) {
     return "; and the URDF does not load: " + std::string(e.what());
   }
