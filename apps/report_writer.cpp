@@ -260,13 +260,8 @@ std::string render_report(const ScenarioRun& run) {
                        ? std::to_string(summary["min_distance_to_limit"]["value"].get<double>()) + " (" +
                              summary["min_distance_to_limit"]["dof"].get<std::string>() + ")"
                        : std::string("none: no joint has position limits")});
-  {  // what held the last cycle: damping, joints at a position limit
-    std::string held = summary["at_end"]["damped"].get<bool>() ? "damped" : "";
-    for (const json& joint : summary["at_end"]["dofs_at_limit"])
-      held += (held.empty() ? "" : "; ") + joint["dof"].get<std::string>() + " at its " +
-              joint["limit"].get<std::string>() + " limit";
-    if (!held.empty()) table.push_back({"last cycle", held});
-  }
+  if (const std::string held = describe_last_cycle(summary["at_end"]); !held.empty())
+    table.push_back({"last cycle", held});
   if (summary.contains("balance")) {
     const json& b = summary["balance"];
     char text[160];

@@ -211,8 +211,11 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
   const Model& model = *run->model;
   run->controller = std::make_unique<Controller>(model, s.solver);
   Controller& c = *run->controller;
-  {  // Names the model lacks in `initial`, `frozen` and the tasks: the first in the file is
-     // reported (frozen on line 6 before a task on line 9), whatever order they are used in.
+  // The task elements, and the names the model lacks in them, `initial` and `frozen`: of
+  // those, the first in the file is reported (frozen on line 6 before a task on line 9),
+  // whatever order they are used in.
+  std::vector<std::unique_ptr<TaskElement>> elements(s.tasks.size());
+  {
     std::vector<std::pair<int, std::string>> errors;
     const auto check = [&](int line, const std::string& field, const auto& lookup) {
       try {
@@ -222,7 +225,8 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
       }
     };
     for (size_t i = 0; i < s.tasks.size(); ++i)
-      check(s.tasks[i].line, "tasks[" + std::to_string(i) + "]", [&] { return make_element(model, s.tasks[i]); });
+      check(s.tasks[i].line, "tasks[" + std::to_string(i) + "]",
+            [&] { return (elements[i] = make_element(model, s.tasks[i])).get(); });
     for (const auto& entry : s.initial)
       check(s.initial_line, "initial", [&] { return model.dof_index(entry.first); });
     for (const std::string& d : s.frozen) check(s.frozen_line, "frozen", [&] { return model.dof_index(d); });
@@ -231,7 +235,7 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
   }
   for (size_t i = 0; i < s.tasks.size(); ++i) {
     const ScenarioTask& t = s.tasks[i];
-    bound(s, t.line, "tasks[" + std::to_string(i) + "]", [&] { return c.add_task(make_element(model, t), t.filter); });
+    bound(s, t.line, "tasks[" + std::to_string(i) + "]", [&] { return c.add_task(std::move(elements[i]), t.filter); });
     run->element_types.push_back(t.type);
   }
   if (s.criterion == "squared") c.set_criterion(std::make_unique<JointCenterCriterion>(model));
@@ -623,6 +627,15 @@ std::string describe_shift_at_limit(const json& entry, int balanced_cycles) {
        << " %); the centre of mass would have needed " << entry["needed"].get<double>() * 100.0
        << " cm: " << entry["remedy"].get<std::string>();
   return line.str();
+}
+
+std::string describe_last_cycle(const json& at_end) {
+  std::string why = at_end["damped"].get<bool>() ? "damped (near a singularity, or a target out of reach)" : "";
+  std::string dofs;
+  for (const json& d : at_end["dofs_at_limit"])
+    dofs += (dofs.empty() ? "" : ", ") + d["dof"].get<std::string>() + " (" + d["limit"].get<std::string>() + ")";
+  if (!dofs.empty()) why += (why.empty() ? "" : "; ") + std::string("at a position limit: ") + dofs;
+  return why;
 }
 
 namespace {

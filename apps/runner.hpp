@@ -83,6 +83,11 @@ nlohmann::json summarize(const ScenarioRun& run);
 /// the centre of mass would have needed 21.2 cm: widen ...".
 std::string describe_shift_at_limit(const nlohmann::json& entry, int balanced_cycles);
 
+/// summary.json's `at_end` in words, for the console and the report: "damped (near a
+/// singularity, or a target out of reach); at a position limit: right_joint_2 (lower)", or
+/// "" when nothing held the last cycle.
+std::string describe_last_cycle(const nlohmann::json& at_end);
+
 /// Writes trajectory.csv, summary.json and report.html into `directory` (created if
 /// needed). Files are written to temporaries and renamed, so nothing half-written remains.
 void write_outputs(const ScenarioRun& run, const std::string& directory, bool report = true);

@@ -274,16 +274,9 @@ int run_scenarios(const std::vector<std::string>& files, const std::string& out,
       if (e["final_error"].is_null()) std::cerr << "inactive at the end\n";
       else std::cerr << "final error " << e["final_error"].get<double>() << " " << e["unit"].get<std::string>() << "\n";
     }
-    {  // why a target may be unmet: the last cycle damped, joints at a position limit
-      const json& end = summary["at_end"];
-      std::string why;
-      if (end["damped"].get<bool>()) why = "damped (near a singularity, or a target out of reach)";
-      std::string dofs;
-      for (const json& d : end["dofs_at_limit"])
-        dofs += (dofs.empty() ? "" : ", ") + d["dof"].get<std::string>() + " (" + d["limit"].get<std::string>() + ")";
-      if (!dofs.empty()) why += (why.empty() ? "" : "; ") + std::string("at a position limit: ") + dofs;
-      if (!why.empty()) std::cerr << "  last cycle: " << why << "\n";
-    }
+    // Why a target may be unmet: the last cycle damped, joints at a position limit.
+    if (const std::string why = wbm::describe_last_cycle(summary["at_end"]); !why.empty())
+      std::cerr << "  last cycle: " << why << "\n";
     {  // how close the joints came to their speed limits and to the bound on their acceleration
       std::ostringstream joints;
       joints << std::fixed << std::setprecision(2) << "  joints: fastest at " << summary["max_joint_speed"]["ratio_to_limit"].get<double>()

@@ -106,10 +106,10 @@ int Model::dof_index(const std::string& name) const {
   // in the user's URDF (a leg joint that --legs locked, NimbRo's or Atlas's knee, say).
   std::string kind;
   for (const Frame& f : frames_)
-    if (!name.empty() && f.joint_name == name)
+    if (f.joint_name == name && !name.empty())
       kind = " (" + quoted(name) + " is a fixed joint of the model: a welded link's, or a locked leg's (legs, --legs))";
-  for (const Body& b : bodies_)
-    if (!name.empty() && b.joint_name == name && b.dof >= 0 && dofs_[b.dof].name != name)
+  for (const Body& b : bodies_)  // a mimic joint's body is driven by its master's dof
+    if (b.joint_name == name && !name.empty() && b.dof >= 0 && dofs_[b.dof].name != name)
       kind = " (" + quoted(name) + " is a mimic joint: it follows dof " + quoted(dofs_[b.dof].name) + ")";
   throw ModelError("model " + quoted(name_) + " has no dof named " + quoted(name) + kind +
                    (kind.empty() ? internal::did_you_mean(name, names) : "") + listed("dofs", names));

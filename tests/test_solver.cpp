@@ -564,7 +564,7 @@ TEST_P(EveryModel, TaskElementJacobiansMatchFiniteDifferencesOfTheirValues) {
     const VectorXd v = wbm_test::random_direction(model.num_dofs(), rng);
     for (auto& e : elements) {
       const VectorXd x = value_at(*e, q);
-      if (e->name() == "a" && std::abs(std::cos(x[1])) < 0.05) {
+      if (dynamic_cast<AttitudeTask*>(e.get()) != nullptr && std::abs(std::cos(x[1])) < 0.05) {
         ++attitude_skipped;
         continue;
       }
