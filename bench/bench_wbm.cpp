@@ -27,7 +27,7 @@
 // timing; the process fails (exit 1) only if a fixture's sanity check fails.
 //
 // Own flags (before Google Benchmark's): --wbm_urdf=FILE --wbm_root=LINK --wbm_legs=A,B
-// --wbm_hands=LEFT,RIGHT [--wbm_head=FRAME] [--wbm_com] [--wbm_posture=DOF,DOF,...]
+// --wbm_hands=LEFT,RIGHT [--wbm_head=FRAME] [--wbm_com] [--wbm_posture=DOF,DOF,...] [--wbm_start=DOF=VALUE,...]
 // [--wbm_default_limits] [--wbm_ignore_xacro_elements] [--wbm_drop_legs] [--wbm_root_height=H] [--wbm_root_rpy=R,P,Y] [--wbm_fixed_base]
 // [--wbm_upper_body_x_range=LO,HI] [--wbm_upper_body_y_range=LO,HI]
 // [--wbm_id=NAME] register a fixture "<NAME>" (default "custom") on that model;
@@ -69,15 +69,18 @@ std::vector<std::string> split(const std::string& s, char sep) {
   return out;
 }
 
-/// "; the ends of FILE's tree: a b c" (the frames on bodies without children that three
-/// or more of the robot's own joints move: the ends of the arms, and of the legs unless
-/// locked), or why the URDF does not load; for the error of a missing --hands. A hand's
-/// fingers are shown as the body they branch from (a palm): the first body above an end with
-/// two or more children, if it is moved by three or more joints and no end below it lies
-/// more than four joints deeper (Valkyrie's fingers made about 50 ends; the torso, where
-/// the arms branch, has the arms' ends seven joints below it).
+/// "; the ends of FILE's tree (links [frames welded to them]): a b [c, d and 3 more] e" (the
+/// bodies without children that three or more of the robot's own joints move: the ends of the
+/// arms, and of the legs unless locked), or why the URDF does not load; for the error of a missing --hands. Each end is
+/// named once, as its body, with the frames welded to it in brackets (the first two and how
+/// many more: Romeo's head carries eleven sensor frames). A hand's fingers are shown as the
+/// body they branch from (a palm): the first body above an end with two or more children, if
+/// it is moved by three or more joints and no end below it lies more than four joints deeper
+/// (Valkyrie's fingers made about 50 ends; the torso, where the arms branch, has the arms'
+/// ends seven joints below it).
 std::string arm_ends(const std::string& urdf, const wbm::UrdfImportOptions& options) {
   constexpr int kMinArmJoints = 3, kMaxFingerJoints = 4;
+  constexpr std::size_t kWeldedNamesShown = 2;
   try {
     const wbm::Model model = wbm::load_urdf(urdf, options);
     std::vector<int> children(model.num_bodies(), 0);
@@ -95,22 +98,30 @@ std::string arm_ends(const std::string& urdf, const wbm::UrdfImportOptions& opti
       for (const int b : model.moving_bodies(body)) joints += moves(b);
       return joints;
     };
-    std::vector<std::string> ends;
-    const auto add = [&](const std::string& name) {
-      if (std::find(ends.begin(), ends.end(), name) == ends.end()) ends.push_back(name);
-    };
+    std::vector<int> end_bodies;  // in the order of their first frame
     for (const wbm::Frame& f : model.frames()) {
       if (children[f.body] > 0 || joints_above(f.body) < kMinArmJoints) continue;
       int branch = model.body(f.body).parent;
       while (branch >= 0 && children[branch] < 2) branch = model.body(branch).parent;
-      if (branch >= 0 && depth[branch] <= kMaxFingerJoints && joints_above(branch) >= kMinArmJoints)
-        add(model.body(branch).name);
-      else
-        add(f.name);
+      const bool palm = branch >= 0 && depth[branch] <= kMaxFingerJoints && joints_above(branch) >= kMinArmJoints;
+      const int end = palm ? branch : f.body;
+      if (std::find(end_bodies.begin(), end_bodies.end(), end) == end_bodies.end()) end_bodies.push_back(end);
     }
     std::string list;
-    for (const std::string& name : ends) list += " " + name;
-    return ends.empty() ? "" : "; the ends of " + urdf + "'s tree:" + list;
+    for (const int end : end_bodies) {
+      const std::string& body_name = model.body(end).name;
+      std::vector<std::string> welded;
+      for (const wbm::Frame& f : model.frames())
+        if (f.body == end && f.name != body_name) welded.push_back(f.name);
+      list += " " + body_name;
+      if (welded.empty()) continue;
+      list += " [";
+      for (std::size_t k = 0; k < std::min(welded.size(), kWeldedNamesShown); ++k)
+        list += (k == 0 ? "" : (k + 1 == welded.size() ? " and " : ", ")) + welded[k];
+      if (welded.size() > kWeldedNamesShown) list += " and " + std::to_string(welded.size() - kWeldedNamesShown) + " more";
+      list += "]";
+    }
+    return end_bodies.empty() ? "" : "; the ends of " + urdf + "'s tree (links [frames welded to them]):" + list;
   } catch (const std::exception& e) {
     return "; and the URDF does not load: " + std::string(e.what());
   }
@@ -200,7 +211,7 @@ bool parse_own_flags(int& argc, char** argv, FixtureSpec& custom, LoopRequest& l
   if (flags.empty()) return false;
   static const char* known[] = {"urdf",      "root",        "legs",        "hands", "head", "com", "posture",
                                 "default_limits", "ignore_xacro_elements", "drop_legs", "root_height", "root_rpy",
-                                "upper_body_x_range", "upper_body_y_range", "fixed_base", "id"};
+                                "upper_body_x_range", "upper_body_y_range", "fixed_base", "start", "id"};
   for (const auto& flag : flags)
     if (std::none_of(std::begin(known), std::end(known), [&](const char* k) { return flag.first == k; })) {
       error = "unknown flag --wbm_" + flag.first;
@@ -266,12 +277,25 @@ bool parse_own_flags(int& argc, char** argv, FixtureSpec& custom, LoopRequest& l
   custom.com = flags.count("com") > 0;
   custom.joint_task = split(flags["posture"], ',');
   custom.fixed_base = flags.count("fixed_base") > 0;
+  for (const std::string& item : split(flags["start"], ',')) {
+    const std::size_t eq = item.find('=');
+    double value = 0.0;
+    if (eq == std::string::npos || eq == 0) {
+      error = "--start (--wbm_start) '" + item + "': DOF=VALUE expected (a dof's name, a value in rad or m)";
+      return false;
+    }
+    if (!parse_number("--start " + item.substr(0, eq) + " (--wbm_start)", item.substr(eq + 1),
+                      "a value in rad (m for a prismatic dof)", value, error))
+      return false;
+    custom.start_values.emplace_back(item.substr(0, eq), value);
+  }
   custom.user_robot = true;
-  if (custom.com || !custom.joint_task.empty())
+  if (custom.com || !custom.joint_task.empty() || !custom.start_values.empty())
     custom.description = flags["urdf"] + ": hands position + grasp axis" + (flags["head"].empty() ? "" : ", head view axis") +
                          (custom.com ? ", centre of mass (heel)" : "") +
                          (custom.joint_task.empty() ? "" : ", posture of " + flags["posture"]) + " (" +
-                         std::to_string(custom.rows()) + " rows)";
+                         std::to_string(custom.rows()) + " rows)" +
+                         (custom.start_values.empty() ? "" : ", from the home pose with " + flags["start"]);
   return true;
 }
 

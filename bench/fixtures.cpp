@@ -390,6 +390,13 @@ Fixture::Fixture(const FixtureSpec& s) : spec(s) {
   }
   check_names();
   start = spec.fixed_base ? wbm::upright_base_configuration(*model, model->home()) : model->home();
+  for (const auto& [name, value] : spec.start_values) {
+    const wbm::Dof& dof = model->dof(model->dof_index(name));  // the name was checked in check_names
+    if (!dof.continuous && !(value >= dof.lower && value <= dof.upper))
+      throw std::runtime_error("--start " + name + "=" + fmt("%g", value) + ": outside the dof's range [" +
+                               fmt("%g", dof.lower) + ", " + fmt("%g", dof.upper) + "]");
+    start[model->dof_index(name)] = value;
+  }
   wbm::UrdfExportOptions whole;
   whole.virtual_dofs = true;
   build_wbm();
@@ -420,6 +427,7 @@ void Fixture::check_names() const {
   for (const std::string& hand : {spec.left_hand, spec.right_hand}) check("--hands", [&] { m.frame_index(hand); });
   if (spec.head_axis) check("--head", [&] { m.frame_index(spec.head); });
   for (const std::string& dof : spec.joint_task) check("--posture", [&] { m.dof_index(dof); });
+  for (const auto& start_value : spec.start_values) check("--start", [&] { m.dof_index(start_value.first); });
 }
 
 void Fixture::add_elements(const std::function<void(std::unique_ptr<wbm::TaskElement>)>& add) const {
@@ -868,10 +876,12 @@ void Fixture::check_wbm() {
         fmt("%.3f", travelled) + " (at least 0.05); of the moving cycles damped " + fmt("%.0f %%", 100.0 * damped / cycles) +
         ", a dof frozen at its limit " + fmt("%.0f %%", 100.0 * frozen / cycles) +
         most_often_at_speed_limit(*model, at_speed_limit, cycles) +
-        (custom && mostly_damped ? ". The motions start from the robot's home pose, the centre of every joint range: arms "
-                                   "stretched there (a singularity) keep the hands from moving; a scenario (wbm run, "
-                                   "initial:) can start elsewhere"
-                                 : ""));
+        (custom && mostly_damped && spec.start_values.empty()
+             ? ". The motions start from the robot's home pose, the centre of every joint range: arms stretched there (a "
+               "singularity) keep the hands from moving; --start DOF=VALUE,... (bench.sh) starts elsewhere"
+         : custom && mostly_damped ? ". The motions start from the home pose with the values of --start: arms stretched "
+                                     "there (a singularity) keep the hands from moving"
+                                   : ""));
   if (overdetermined_set)
     note("WARNING: " + spec.id + ": more task rows (" + std::to_string(controller->tasks().num_rows()) +
          ") than free dofs: no configuration meets them all; the timed cycles run the damped compromise (hands " +

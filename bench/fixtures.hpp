@@ -32,6 +32,10 @@ struct FixtureSpec {
   /// Freeze all nine virtual dofs (heel and upper body), not only the heel: a robot on a
   /// fixed base, e.g. a dual-arm robot on a pedestal (its base never moves).
   bool fixed_base = false;
+  /// Dof values [rad, or m for prismatic dofs] that replace the home pose's where every
+  /// controller and solver starts (--start DOF=VALUE,...): arms stretched at the home pose
+  /// (the centre of every joint range) keep a robot's hands from moving.
+  std::vector<std::pair<std::string, double>> start_values;
   /// A robot given on the command line (--wbm_urdf), whatever its id: its tracking is
   /// reported, not held to the shipped fixtures' limits (see Fixture::check_wbm).
   bool user_robot = false;

@@ -9,7 +9,7 @@
 #                                         callgrind; the same on every run of a build); with a
 #                                         URDF (below): on your robot
 #   scripts/bench.sh ROBOT.urdf --hands LEFT,RIGHT [--head FRAME] [--root LINK] [--legs A,B]
-#                    [--com] [--posture DOF,DOF,...]
+#                    [--com] [--posture DOF,DOF,...] [--start DOF=VALUE,...]
 #                    [--default-limits] [--drop-legs] [--root-height H] [--root-rpy R,P,Y] [--fixed-base] [--short]
 #                    [--upper-body-x-range LO,HI] [--upper-body-y-range LO,HI] [--ignore-xacro-elements]
 #                                         your robot: both hands position + grasp axis and the
@@ -18,7 +18,10 @@
 #                                         KDL's wdls and arm-chain solvers on the same URDF;
 #                                         --fixed-base freezes all nine virtual dofs, not only
 #                                         the heel (a robot whose base never moves, e.g. a
-#                                         dual-arm robot on a pedestal)
+#                                         dual-arm robot on a pedestal); --start replaces dofs'
+#                                         values of the home pose (the centre of every range)
+#                                         where the motions start, e.g. elbows bent: arms
+#                                         stretched there keep the hands from moving
 #   scripts/bench.sh --loop SECONDS [--rate HZ] [--priority P | --spin] [--plot DIR] [ROBOT.urdf --hands ...]
 #                                         the controller in a periodic real-time loop (default
 #                                         1000 Hz, SCHED_FIFO 80 with memory locked if allowed;
@@ -59,6 +62,7 @@ while [[ $# -gt 0 ]]; do
     --build-dir) need_value "$@"; build_dir="$2"; shift ;;
     --com) own+=("--wbm_com") ;;
     --posture) need_value "$@"; own+=("--wbm_posture=$2"); shift ;;
+    --start) need_value "$@"; own+=("--wbm_start=$2"); shift ;;
     --loop) need_value "$@"; loop+=("--wbm_loop=$2"); shift ;;
     --rate) need_value "$@"; loop+=("--wbm_rate=$2"); shift ;;
     --priority) need_value "$@"; loop+=("--wbm_priority=$2"); shift ;;
@@ -107,7 +111,7 @@ if [[ -n "$urdf" ]]; then
   fi
   exec "$bin" "--wbm_urdf=$urdf" "${own[@]}" --wbm_id=custom --benchmark_filter='^custom/' "${args[@]}" "${extra[@]}"
 fi
-if [[ ${#own[@]} -gt 0 ]]; then echo "bench.sh: --root/--legs/--hands/--head/--com/--posture/--fixed-base/... need a URDF file" >&2; exit 2; fi
+if [[ ${#own[@]} -gt 0 ]]; then echo "bench.sh: --root/--legs/--hands/--head/--com/--posture/--start/--fixed-base/... need a URDF file" >&2; exit 2; fi
 
 if [[ ${#loop[@]} -gt 0 ]]; then
   run_loop
