@@ -421,6 +421,37 @@ Transform to_transform(const urdf::Pose& pose) {
 
 Vector3 to_vector(const urdf::Vector3& v) { return {v.x, v.y, v.z}; }
 
+/// The lowest height [m] of a link's collision and visual primitives (spheres, boxes,
+/// cylinders) in the frame where the link's pose is X_RL, or +inf without any: a foot's sole
+/// lies below its link's origin (G1's 3.5 cm below the ankle, H1's and Atlas's boxes). Meshes
+/// are left out (their files are not read), and so are primitives with a size that is not
+/// finite or beyond kMaxLength (they say nothing of where the sole is).
+double lowest_primitive_z(const urdf::Link& link, const Transform& X_RL) {
+  double lowest = std::numeric_limits<double>::infinity();
+  const auto add = [&](const urdf::Pose& origin, const urdf::GeometrySharedPtr& geometry) {
+    if (!geometry) return;
+    const Transform X_RG = X_RL * to_transform(origin);
+    const auto row = X_RG.R.row(2);  // the geometry's axes' vertical components
+    double depth = std::numeric_limits<double>::quiet_NaN();  // of its lowest point below its origin
+    if (geometry->type == urdf::Geometry::SPHERE) {
+      depth = static_cast<const urdf::Sphere&>(*geometry).radius;
+    } else if (geometry->type == urdf::Geometry::BOX) {
+      const urdf::Vector3& size = static_cast<const urdf::Box&>(*geometry).dim;
+      depth = 0.5 * (std::abs(row(0)) * size.x + std::abs(row(1)) * size.y + std::abs(row(2)) * size.z);
+    } else if (geometry->type == urdf::Geometry::CYLINDER) {  // along its z axis
+      const auto& cylinder = static_cast<const urdf::Cylinder&>(*geometry);
+      depth = 0.5 * std::abs(row(2)) * cylinder.length +
+              cylinder.radius * std::sqrt(std::max(0.0, 1.0 - row(2) * row(2)));
+    }
+    if (std::isfinite(depth) && depth >= 0.0 && depth <= kMaxLength) lowest = std::min(lowest, X_RG.p.z() - depth);
+  };
+  for (const urdf::CollisionSharedPtr& collision : link.collision_array)
+    if (collision) add(collision->origin, collision->geometry);
+  for (const urdf::VisualSharedPtr& visual : link.visual_array)
+    if (visual) add(visual->origin, visual->geometry);
+  return lowest;
+}
+
 /// Inertial of a link, expressed in the frame of the body it is welded to (X_BL).
 Inertial link_inertial(const urdf::Link& link, const Transform& X_BL) {
   Inertial in;
@@ -491,6 +522,8 @@ class TreeBuilder {
   std::vector<Frame> frames_;
   /// Frame (link or reversed joint's body) -> the frame it hangs from (Frame::parent).
   std::map<std::string, std::string> parent_of_;
+  /// The legs' lowest point at zero joint values (a link's origin or the lowest point of its
+  /// primitives, lowest_primitive_z) in the upper-body frame, and its link.
   double lowest_leg_z_ = std::numeric_limits<double>::infinity();
   std::string lowest_leg_link_;
   /// Height of each link's origin above the root link's in the upper-body frame, at zero
@@ -522,9 +555,12 @@ class TreeBuilder {
       }
       merge_inertial(specs_[body].body.inertial, link_inertial(link, X_BL));
     }
-    if (mode != Mode::kNormal && X_RL.p.z() < lowest_leg_z_) {
-      lowest_leg_z_ = X_RL.p.z();
-      lowest_leg_link_ = link_name;
+    if (mode != Mode::kNormal) {
+      const double lowest = std::min(X_RL.p.z(), lowest_primitive_z(link, X_RL));
+      if (lowest < lowest_leg_z_) {
+        lowest_leg_z_ = lowest;
+        lowest_leg_link_ = link_name;
+      }
     }
     if (mode != Mode::kNormal) leg_length_ = std::max(leg_length_, (X_RL.p - leg_origin_).norm());
     for (const JointInfo* info : neighbours_.at(link_name)) {

@@ -873,7 +873,8 @@ TEST(ReRooting, RootHeightComesFromTheLegsAlsoWhenTheyHangBelowReversedJoints) {
   const ShippedModel& g1 = wbm_test::shipped_model("g1_29dof");
   const Model pelvis = g1.load();
   const Model torso = wbm_test::import_variant("g1_29dof_torso_root").load();
-  // Expected: the lowest leg link origin below the root origin at zero joint values.
+  // Expected: the soles below the root origin at zero joint values. G1's sole is no link: its
+  // ankle roll links carry four collision spheres of radius 5 mm, 3 cm below their origin.
   Data data(pelvis);
   Eigen::VectorXd q = Eigen::VectorXd::Zero(pelvis.num_dofs());
   q[pelvis.virtual_dofs().ub_z] = pelvis.dof(pelvis.virtual_dofs().ub_z).upper;
@@ -887,8 +888,60 @@ TEST(ReRooting, RootHeightComesFromTheLegsAlsoWhenTheyHangBelowReversedJoints) {
           lowest = std::min(lowest, (X_RW * wbm::frame_pose(pelvis, data, pelvis.frame_index(f.name))).p.z());
     return lowest;
   };
-  EXPECT_NEAR(pelvis.dof(pelvis.virtual_dofs().ub_z).upper, -lowest_leg_link("pelvis"), 1e-9);
-  EXPECT_NEAR(torso.dof(torso.virtual_dofs().ub_z).upper, -lowest_leg_link("torso_link"), 1e-9);
+  constexpr double kSoleBelowAnkle = 0.03 + 0.005;
+  EXPECT_NEAR(pelvis.dof(pelvis.virtual_dofs().ub_z).upper, kSoleBelowAnkle - lowest_leg_link("pelvis"), 1e-9);
+  EXPECT_NEAR(torso.dof(torso.virtual_dofs().ub_z).upper, kSoleBelowAnkle - lowest_leg_link("torso_link"), 1e-9);
+}
+
+// The root height from the legs reaches down to the lowest point of their primitives
+// (collision and visual spheres, boxes, cylinders, turned by their origins and by the links'
+// poses at zero joint values), not only to the lowest link origin: a foot's sole lies below
+// its ankle (G1 3.5 cm, H1 6.2 cm, Atlas 7.4 cm; the robots stood that deep in the ground).
+// Meshes are not read; a link without primitives counts by its origin as before.
+TEST(UrdfImport, TheRootHeightFromTheLegsReachesTheirSoles) {
+  const auto height = [](const std::string& foot_geometry) {
+    const std::string xml = R"(<robot name="biped">
+  <link name="pelvis"><inertial><mass value="5"/><inertia ixx="0.1" ixy="0" ixz="0" iyy="0.1" iyz="0" izz="0.1"/></inertial></link>
+  <link name="l_thigh"/>
+  <joint name="l_hip" type="revolute"><parent link="pelvis"/><child link="l_thigh"/><origin xyz="0 0.1 -0.1" rpy="0 0 0"/>
+    <axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="10" velocity="5"/></joint>
+  <link name="l_foot">)" + foot_geometry + R"(</link>
+  <joint name="l_knee" type="revolute"><parent link="l_thigh"/><child link="l_foot"/><origin xyz="0 0 -0.5" rpy="0 0.3 0"/>
+    <axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="10" velocity="5"/></joint>
+  <link name="arm"/>
+  <joint name="shoulder" type="revolute"><parent link="pelvis"/><child link="arm"/><origin xyz="0 0.2 0.3" rpy="0 0 0"/>
+    <axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="10" velocity="5"/></joint>
+</robot>)";
+    wbm::UrdfImportOptions options;
+    options.legs = {"l_thigh"};
+    const Model model = wbm::parse_urdf(xml, options, "biped.urdf");
+    return model.dof(model.virtual_dofs().ub_z).upper;
+  };
+  const double ankle = 0.6;  // the foot link's origin below the pelvis
+  EXPECT_NEAR(height(""), ankle, 1e-12);
+  const auto element = [](const char* kind, const std::string& xyz, const std::string& rpy, const std::string& shape) {
+    return std::string("<") + kind + "><origin xyz=\"" + xyz + "\" rpy=\"" + rpy + "\"/><geometry>" + shape +
+           "</geometry></" + kind + ">";
+  };
+  // The foot link is pitched by 0.3 rad (the knee's origin): its point (x, y, z) lies
+  // -x sin(0.3) + z cos(0.3) above its origin.
+  const double s = std::sin(0.3), c = std::cos(0.3);
+  EXPECT_NEAR(height(element("collision", "0 0 -0.03", "0 0 0", R"(<sphere radius="0.005"/>)")),
+              ankle + 0.03 * c + 0.005, 1e-12);
+  // A box 0.2 x 0.1 x 0.02 centred 4 cm below the ankle: its lowest corner.
+  EXPECT_NEAR(height(element("collision", "0 0 -0.04", "0 0 0", R"(<box size="0.2 0.1 0.02"/>)")),
+              ankle + 0.04 * c + 0.5 * (0.2 * s + 0.02 * c), 1e-12);
+  // A visual cylinder lying along the foot's x axis (rpy 0 pi/2 0 turns its z onto x), radius
+  // 0.03, length 0.2: its axis pitched by 0.3 rad, the lowest point of the rim at one end.
+  EXPECT_NEAR(height(element("visual", "0 0 -0.02", "0 1.5707963267948966 0", R"(<cylinder radius="0.03" length="0.2"/>)")),
+              ankle + 0.02 * c + 0.5 * 0.2 * s + 0.03 * c, 1e-9);
+  // The lowest of several; a mesh (not read) and a primitive above the origin change nothing.
+  EXPECT_NEAR(height(element("collision", "0 0 0.05", "0 0 0", R"(<sphere radius="0.01"/>)") +
+                     element("visual", "0 0 -0.5", "0 0 0", R"(<mesh filename="foot.stl"/>)")),
+              ankle, 1e-12);
+  EXPECT_NEAR(height(element("collision", "0 0 -0.01", "0 0 0", R"(<sphere radius="0.01"/>)") +
+                     element("collision", "0 0 -0.03", "0 0 0", R"(<sphere radius="0.01"/>)")),
+              ankle + 0.03 * c + 0.01, 1e-12);
 }
 
 // ---------------------------------------------------------------------------------------
