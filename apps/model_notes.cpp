@@ -9,7 +9,7 @@
 namespace wbm {
 namespace {
 
-/// A note when the locked legs point more forward, backward or sideways than down
+/// A note when the locked legs point more forward, backward, sideways or up than down, or apart
 /// at zero joint values in wbm's upper-body frame (x forward, z up; the base upright), or "":
 /// the sign of a root link turned by pitch or roll pi/2 without --root-rpy. The import refuses
 /// legs whose lowest link is less than a tenth of their length below the root, but legs turned
@@ -20,6 +20,7 @@ std::string legs_direction_note(const Model& model, const std::vector<std::strin
   Data data(model);
   forward_kinematics(model, data, upright_base_configuration(model, model.home()));
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  double length = 0.0;  // of the legs' vectors, summed
   int counted = 0;
   for (const std::string& leg : legs) {
     const int first = model.find_frame(leg);
@@ -33,14 +34,24 @@ std::string legs_direction_note(const Model& model, const std::vector<std::strin
       if (above == first && d.norm() > farthest.norm()) farthest = d;
     }
     sum += farthest;
+    length += farthest.norm();
     ++counted;
   }
   if (counted == 0) return "";
   const Eigen::Vector3d mean = sum / counted;
+  if (mean.norm() < 0.1 * length / counted) {  // no direction to name: e.g. both arms given as legs
+    std::ostringstream note;
+    note << std::fixed << std::setprecision(2) << "the legs point apart rather than down at zero joint values (from "
+         << "their first link to their farthest, " << length / counted << " m long on average, their directions cancel): "
+         << "if these are not the robot's legs, --legs (robot.legs) names the first link of each leg; if the root link's "
+            "z axis is not up, give its orientation with --root-rpy (robot.root_rpy; docs/model.md)";
+    return note.str();
+  }
   const double horizontal = std::hypot(mean.x(), mean.y());
   if (!(horizontal > -mean.z())) return "";
-  const char* where = std::abs(mean.x()) >= std::abs(mean.y()) ? (mean.x() > 0 ? "forward" : "backward")
-                                                                  : (mean.y() > 0 ? "to the left" : "to the right");
+  const char* where = mean.z() >= horizontal                     ? "up"  // upside down, or arms as legs
+                      : std::abs(mean.x()) >= std::abs(mean.y()) ? (mean.x() > 0 ? "forward" : "backward")
+                                                                 : (mean.y() > 0 ? "to the left" : "to the right");
   const Eigen::Vector3d shown = mean.unaryExpr([](double v) { return std::abs(v) < 0.005 ? 0.0 : v; });  // no "-0.00"
   std::ostringstream note;
   note << std::fixed << std::setprecision(2) << "the legs point " << where
@@ -48,7 +59,9 @@ std::string legs_direction_note(const Model& model, const std::vector<std::strin
        << " m forward, " << shown.y() << " m left, " << shown.z()
        << " m up, in wbm's upper-body frame: x forward, y left, z up): if the root link's x axis is not forward or "
           "its z axis not up, give its orientation with --root-rpy (in a scenario robot.root_rpy; docs/model.md); legs bent at "
-          "zero can show this too";
+          "zero can show this too"
+       << (mean.z() >= horizontal ? "; if these are not the robot's legs, --legs (robot.legs) names the first link of each leg"
+                                  : "");
   return note.str();
 }
 
@@ -74,12 +87,21 @@ std::string speed_limit_note(const Model& model) {
   return note.str();
 }
 
+/// A note when the model has no mass, or "": a URDF without <inertial> elements (a kinematic
+/// description, as many fixed-base setups' are) loads, but a centre-of-mass task has nothing
+/// to follow and balance nothing to balance.
+std::string massless_note(const Model& model) {
+  if (model.total_mass() > 0.0) return "";
+  return "the model has no mass (no <inertial> with a mass in the URDF): centre-of-mass tasks and balance need the "
+         "links' masses";
+}
+
 }  // namespace
 
 std::vector<std::string> model_notes(const Model& model, bool from_urdf, const std::vector<std::string>& legs) {
   std::vector<std::string> notes;
   if (!from_urdf) return notes;
-  for (const std::string& note : {speed_limit_note(model), legs_direction_note(model, legs)})
+  for (const std::string& note : {speed_limit_note(model), legs_direction_note(model, legs), massless_note(model)})
     if (!note.empty()) notes.push_back(note);
   return notes;
 }

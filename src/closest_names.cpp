@@ -35,7 +35,8 @@ bool contains_ignoring_case(const std::string& text, const std::string& part) {
 std::string did_you_mean(const std::string& name, const std::vector<std::string>& names) {
   if (name.empty()) return {};
   // The names within the edit distance, the closest; failing those, the names that contain
-  // the typed one (a prefix or part of a name).
+  // the typed one (a prefix or part of a name) or that it contains and that make at least
+  // half of it (a name typed with an ending it lacks: "left_hand_link" for "left_hand").
   const std::size_t limit = std::max<std::size_t>(1, name.size() / 3);
   std::size_t best = std::numeric_limits<std::size_t>::max();
   std::vector<std::string> closest, containing;
@@ -47,13 +48,15 @@ std::string did_you_mean(const std::string& name, const std::vector<std::string>
         closest.clear();
       }
       if (d == best && closest.size() < 3) closest.push_back(candidate);
-    } else if (name.size() >= 3 && contains_ignoring_case(candidate, name)) {
+    } else if (name.size() >= 3 && (contains_ignoring_case(candidate, name) ||
+                                    (2 * candidate.size() >= name.size() && contains_ignoring_case(name, candidate)))) {
       containing.push_back(candidate);
     }
   }
-  if (closest.empty()) {  // the shortest first (the least added to what was typed)
+  if (closest.empty()) {  // the closest in length first (the least added to or left out of what was typed)
+    const auto gap = [&](const std::string& a) { return a.size() > name.size() ? a.size() - name.size() : name.size() - a.size(); };
     std::stable_sort(containing.begin(), containing.end(),
-                     [](const std::string& a, const std::string& b) { return a.size() < b.size(); });
+                     [&](const std::string& a, const std::string& b) { return gap(a) < gap(b); });
     containing.resize(std::min<std::size_t>(containing.size(), 3));
     closest = containing;
   }

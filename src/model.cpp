@@ -45,7 +45,9 @@ void check_inertial(const std::string& what, const Inertial& in) {
 std::string listed(const char* what, const std::vector<std::string>& names) {
   std::string text = std::string("; ") + what + " are:";
   for (std::size_t k = 0; k < names.size() && k < 40; ++k) text += " " + names[k];
-  if (names.size() > 40) text += " ...";
+  if (names.size() > 40)
+    text += " ... (" + std::to_string(names.size() - 40) + " more of " + std::to_string(names.size()) +
+            "; `wbm model info` lists them all)";
   return text;
 }
 

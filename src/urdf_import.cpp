@@ -1,5 +1,7 @@
 #include "wbm/urdf_import.hpp"
 
+#include <sys/stat.h>
+
 #include <algorithm>
 #include <cmath>
 #include <fstream>
@@ -532,6 +534,29 @@ class TreeBuilder {
   /// The legs' length: the largest distance of a leg's link from its first link.
   double leg_length_ = 0.0;
 
+  std::set<std::string> leg_links_;  ///< the links of the legs (locked or dropped)
+
+  /// " (links welded to it higher up: a 0.68 m, b 0.5 m above the legs' lowest)", the links
+  /// welded to the root link (up to three, the highest first) at least `clearance` [m] above
+  /// the legs' lowest point at zero joint values (not the legs' own), or "": roots for a root
+  /// link at the feet.
+  std::string higher_root_links(double clearance) const {
+    std::vector<std::pair<double, std::string>> links;
+    for (const Frame& frame : frames_)
+      if (frame.body == 0 && !leg_links_.count(frame.name) && z_.count(frame.name) &&
+          z_.at(frame.name) - lowest_leg_z_ >= clearance)
+        links.emplace_back(z_.at(frame.name) - lowest_leg_z_, frame.name);
+    if (links.empty()) return "";
+    std::sort(links.begin(), links.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+    std::ostringstream text;
+    text.precision(3);
+    text << " (links welded to it higher up:";
+    for (std::size_t k = 0; k < links.size() && k < 3; ++k)
+      text << (k == 0 ? " " : ", ") << quoted(links[k].second) << " " << links[k].first << " m";
+    text << " above the legs' lowest)";
+    return text.str();
+  }
+
  private:
   enum class Mode { kNormal, kLocked, kDropped };
 
@@ -556,6 +581,7 @@ class TreeBuilder {
       merge_inertial(specs_[body].body.inertial, link_inertial(link, X_BL));
     }
     if (mode != Mode::kNormal) {
+      leg_links_.insert(link_name);
       const double lowest = std::min(X_RL.p.z(), lowest_primitive_z(link, X_RL));
       if (lowest < lowest_leg_z_) {
         lowest_leg_z_ = lowest;
@@ -724,6 +750,9 @@ void check_virtual_names(const UrdfChecker& checker, const TreeBuilder& tree, do
 }  // namespace
 
 Model load_urdf(const std::string& path, const UrdfImportOptions& options) {
+  struct stat status {};  // an ifstream opens a directory, which then reads as an empty document
+  if (::stat(path.c_str(), &status) == 0 && S_ISDIR(status.st_mode))
+    throw ParseError(path + ": is a directory, not a URDF file");
   std::ifstream in(path);
   if (!in) throw ParseError(path + ": cannot open the file");
   std::stringstream text;
@@ -779,12 +808,17 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
     // forward, 0.07 of 0.39 m down on Poppy) is not told from such a robot (`wbm model info`
     // notes legs that point more sideways than down: apps/model_notes.cpp).
     const double depth = -tree.lowest_leg_z_;
-    if (depth > 0.0 && depth < 0.1 * tree.leg_length_) {
+    if (depth < 0.1 * tree.leg_length_) {
       std::ostringstream msg;
-      msg << "leg link " << quoted(tree.lowest_leg_link_) << ", the legs' lowest at zero joint values, is " << depth
-          << " m below the root link's origin, less than a tenth of the legs' length (" << tree.leg_length_
+      msg << "leg link " << quoted(tree.lowest_leg_link_) << ", the legs' lowest at zero joint values, is "
+          << (depth > 0.0 ? std::to_string(depth) + " m below" : "not below")
+          << " the root link's origin, less than a tenth of the legs' length (" << tree.leg_length_
           << " m from a leg's first link to its farthest): the legs do not point down. If the root link's z axis is "
-             "not up, give its orientation (root_rpy, --root-rpy); or give the root height (root_height, --root-height)";
+             "not up, give its orientation (root_rpy, --root-rpy); if its origin lies at the feet (as in some CAD "
+             "exports), choose a link at the hips or above as the root (root, --root)"
+          << tree.higher_root_links(0.1 * tree.leg_length_)
+          << "; if these are not the legs, name the first link of each (legs, --legs); or give the root height "
+             "(root_height, --root-height)";
       checker.fail(checker.link_line(tree.lowest_leg_link_), msg.str());
     }
     height = depth;
@@ -798,7 +832,7 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
   if (std::isnan(height) && options.root.empty() && root != checker.root() && cut != tree.z_.end() && cut->second < -1e-6)
     height = -cut->second;
   if (std::isnan(height)) height = 1.0;
-  if (!(height > 0.0))
+  if (!(height > 0.0))  // legs of no length level with the root (longer ones are checked above)
     throw ParseError(source + ": the root height above the ground must be > 0 m (the legs' lowest link is not below the "
                               "root: give the root height explicitly, or, if the root link's z axis is not up, its "
                               "orientation with root_rpy, --root-rpy)");

@@ -123,6 +123,65 @@ TEST(Cli, ModelInfoNotesLegsThatDoNotPointDown) {
   EXPECT_EQ(wbm_cli(g1_info + " --root-rpy 0,1.5707963,0 --drop-legs").out.find("note: the legs"), std::string::npos);
 }
 
+// Arms given as legs: pointing up (the dual-arm robot's) or apart (two links straight out to
+// the sides, which said "the legs point to the right ... 0.00 m forward, 0.00 m left, 0.00 m
+// up") get a note that names --legs.
+TEST(Cli, ModelInfoNotesLegsThatPointUpOrApart) {
+  const CliRun up = wbm_cli("model info '" + wbm_test::source_path("models/dual_arm/dual_arm.urdf") +
+                            "' --legs left_link1,right_link1 --root-height 1");
+  EXPECT_EQ(up.status, 0) << up.err;
+  EXPECT_NE(up.out.find("note: the legs point up rather than down at zero joint values (from their first link to their "
+                        "farthest, on average 0.00 m forward, 0.00 m left, 1.02 m up"),
+            std::string::npos)
+      << up.out;
+  EXPECT_NE(up.out.find("if these are not the robot's legs, --legs (robot.legs) names the first link of each leg"),
+            std::string::npos)
+      << up.out;
+  const std::string file = testing::TempDir() + "wbm_cli_apart_" + std::to_string(getpid()) + ".urdf";
+  std::string xml = "<?xml version=\"1.0\"?>\n<robot name=\"apart\">\n"
+                    "<link name=\"base\"><inertial><mass value=\"1\"/>"
+                    "<inertia ixx=\"0.1\" ixy=\"0\" ixz=\"0\" iyy=\"0.1\" iyz=\"0\" izz=\"0.1\"/></inertial></link>\n";
+  for (const auto& [side, y] : {std::pair{"l", "0.4"}, std::pair{"r", "-0.4"}})
+    xml += std::string("<link name=\"") + side + "_upper\"/><link name=\"" + side + "_lower\"/>\n<joint name=\"" + side +
+           "_hip\" type=\"revolute\"><parent link=\"base\"/><child link=\"" + side +
+           "_upper\"/><origin xyz=\"0 0 -0.1\"/><axis xyz=\"0 1 0\"/><limit lower=\"-1\" upper=\"1\" effort=\"1\" "
+           "velocity=\"5\"/></joint>\n<joint name=\"" + side + "_knee\" type=\"revolute\"><parent link=\"" + side +
+           "_upper\"/><child link=\"" + side + "_lower\"/><origin xyz=\"0 " + y +
+           " 0\"/><axis xyz=\"0 1 0\"/><limit lower=\"-1\" upper=\"1\" effort=\"1\" velocity=\"5\"/></joint>\n";
+  std::ofstream(file) << xml << "</robot>\n";
+  const CliRun apart = wbm_cli("model info '" + file + "' --legs l_upper,r_upper --root-height 1");
+  std::remove(file.c_str());
+  EXPECT_EQ(apart.status, 0) << apart.err;
+  EXPECT_NE(apart.out.find("note: the legs point apart rather than down at zero joint values (from their first link to "
+                           "their farthest, 0.40 m long on average, their directions cancel): if these are not the "
+                           "robot's legs, --legs (robot.legs) names the first link of each leg"),
+            std::string::npos)
+      << apart.out;
+}
+
+// A URDF without masses (a kinematic description) loads; the note says what needs them.
+TEST(Cli, ModelInfoNotesAModelWithoutMass) {
+  std::string xml = wbm_test::read_file(wbm_test::source_path("models/dual_arm/dual_arm.urdf"));
+  int removed = 0;
+  for (std::size_t at; (at = xml.find("<inertial>")) != std::string::npos; ++removed)
+    xml.erase(at, xml.find("</inertial>", at) + std::string("</inertial>").size() - at);
+  ASSERT_GT(removed, 10);
+  const std::string file = testing::TempDir() + "wbm_cli_massless_" + std::to_string(getpid()) + ".urdf";
+  std::ofstream(file) << xml;
+  const CliRun r = wbm_cli("model info '" + file + "'");
+  const CliRun as_json = wbm_cli("model info '" + file + "' --json");
+  std::remove(file.c_str());
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("note: the model has no mass (no <inertial> with a mass in the URDF): centre-of-mass tasks and "
+                       "balance need the links' masses"),
+            std::string::npos)
+      << r.out;
+  EXPECT_EQ(parse(as_json)["notes"].size(), 1u) << as_json.out;
+  // With masses: no such note.
+  const CliRun dual_arm = wbm_cli("model info '" + wbm_test::source_path("models/dual_arm/dual_arm.urdf") + "'");
+  EXPECT_EQ(dual_arm.out.find("has no mass"), std::string::npos) << dual_arm.out;
+}
+
 TEST(Cli, ModelInfoJson) {
   const json j = parse(wbm_cli("model info --json"));
   ASSERT_TRUE(j.is_object());

@@ -596,6 +596,10 @@ TEST(PaperModel, UnknownNamesSuggestTheClosest) {
   EXPECT_NE(upper.find("(did you mean 'r_hand'?)"), std::string::npos) << upper;
   const std::string part = message([&] { model.frame_index("hand"); });
   EXPECT_NE(part.find("(did you mean 'l_hand', 'r_hand' or 'l_hand_ref'?)"), std::string::npos) << part;
+  // A name typed with an ending the model's lacks (the URDF's link is "l_hand", the user wrote
+  // "l_hand_link"): beyond the edit distance, found as a part of what was typed.
+  const std::string suffixed = message([&] { model.frame_index("l_hand_link"); });
+  EXPECT_NE(suffixed.find("has no frame named 'l_hand_link' (did you mean 'l_hand'?)"), std::string::npos) << suffixed;
   const std::string dof = message([&] { model.dof_index("l_elbo"); });
   EXPECT_NE(dof.find("has no dof named 'l_elbo' (did you mean 'l_elbow'?); dofs are: heel_x heel_y heel_yaw"),
             std::string::npos)
@@ -603,6 +607,20 @@ TEST(PaperModel, UnknownNamesSuggestTheClosest) {
   const std::string none = message([&] { model.frame_index("xyz"); });
   EXPECT_EQ(none.find("did you mean"), std::string::npos) << none;
   EXPECT_NE(none.find("; frames are:"), std::string::npos) << none;
+}
+
+// Past 40 names the list says how many it left out and where they all are (a user's frame
+// past the 40th was neither suggested nor shown).
+TEST(UrdfImport, ALongListOfNamesSaysHowManyItLeavesOut) {
+  const Model g1 = wbm_test::shipped_model("g1_29dof").load();
+  ASSERT_EQ(g1.num_frames(), 48);
+  try {
+    g1.frame_index("no_such_frame");
+    ADD_FAILURE() << "no error";
+  } catch (const wbm::ModelError& e) {
+    EXPECT_NE(std::string(e.what()).find(" ... (8 more of 48; `wbm model info` lists them all)"), std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(PaperModel, GraspAxesForwardAndHandsBelowShouldersAtZeroArms) {
@@ -863,7 +881,10 @@ TEST(UrdfImport, RootRpyOutOfRangeIsAnError) {
     wbm::load_urdf(g1.path, upside_down);
     ADD_FAILURE() << "legs above the root were accepted";
   } catch (const wbm::ParseError& e) {
-    EXPECT_NE(std::string(e.what()).find("if the root link's z axis is not up, its orientation with root_rpy"),
+    EXPECT_NE(std::string(e.what()).find("is not below the root link's origin, less than a tenth of the legs' length"),
+              std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("If the root link's z axis is not up, give its orientation (root_rpy, --root-rpy)"),
               std::string::npos)
         << e.what();
   }
