@@ -263,6 +263,7 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
     std::vector<int> on, off, freeze, release;
   };
   std::vector<Resolved> events;
+  std::vector<std::string> target_notes;  // joint targets outside their dofs' ranges
   for (const ScenarioEvent& ev : s.events) {
     Resolved r;
     // `k`: the entry's index in its mapping (its line, where read from a file).
@@ -282,6 +283,17 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
         fail(s, line, field + "." + name + ": axis targets must be absolute directions");
       if (!relative && stack.element(e).target_kind() == TargetKind::kDirection && v.norm() < 1e-9)
         fail(s, line, field + "." + name + ": the direction must not be zero");
+      if (!relative && s.tasks[e].type == "joints")
+        for (int k_dof = 0; k_dof < v.size(); ++k_dof)
+          if (const Dof& dof = model.dof(model.dof_index(s.tasks[e].dofs[k_dof]));
+              !dof.continuous && !(v[k_dof] >= dof.lower && v[k_dof] <= dof.upper)) {
+            std::ostringstream note;  // the joint stops at its limit: the element's error stays
+            note << "task '" << name << "': the target of '" << dof.name << "', " << v[k_dof] << " (" << field << ", line "
+                 << line << "), lies outside its range [" << dof.lower << ", " << dof.upper
+                 << "]: the joint stops at its limit, " << std::abs(v[k_dof] - std::clamp(v[k_dof], dof.lower, dof.upper))
+                 << (dof.type == JointType::kPrismatic ? " m" : " rad") << " short";
+            target_notes.push_back(note.str());
+          }
       return e;
     };
     for (size_t k = 0; k < ev.targets.size(); ++k)
@@ -368,6 +380,7 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
           considered[e] = considered[e] || (row >= stack.row_offset(e) && row < stack.row_offset(e) + stack.element(e).dim());
     }
     run->task_notes = immovable_task_notes(model, stack, ever_free, considered, c.q());
+    run->task_notes.insert(run->task_notes.end(), target_notes.begin(), target_notes.end());
   }
   if (options.check_only) return run;
   const int n_el = stack.num_elements();

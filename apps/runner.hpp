@@ -47,7 +47,8 @@ struct ScenarioRun {
   };
   std::array<ShiftAtLimit, 2> shift_at_limit;
   int balanced_cycles = 0;  ///< cycles with balance on
-  /// Elements no dof free in the scenario moves (immovable_task_notes), found before the run.
+  /// Elements no dof free in the scenario moves (immovable_task_notes) and joint targets outside
+  /// their dofs' ranges, found before the run.
   std::vector<std::string> task_notes;
 
   int num_cycles() const { return static_cast<int>(time.size()); }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -135,6 +136,8 @@ int scenario_cycles(double duration, double dt) {
 }
 
 Scenario load_scenario(const std::string& path) {
+  std::error_code error;  // an ifstream opens a directory, which then reads as an empty document
+  if (std::filesystem::is_directory(path, error)) throw ConfigError(path + ": is a directory, not a scenario file");
   std::ifstream in(path);
   if (!in) throw ConfigError(path + ": cannot open the scenario file");
   std::stringstream text;
@@ -182,9 +185,15 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
     if (robot["drop_legs"] && r.boolean(robot["drop_legs"], "robot.drop_legs")) s.urdf_options.leg_mode = LegMode::kDrop;
     if (robot["root_height"]) s.urdf_options.root_height = r.positive(robot["root_height"], "robot.root_height");
     if (robot["root_rpy"]) {
-      // The shape here; the range is load_urdf's rule (its error names this robot's line).
+      // The shape and range here, at the option's line (load_urdf checks the range too).
       const Eigen::VectorXd rpy = r.vector(robot["root_rpy"], "robot.root_rpy");
       if (rpy.size() != 3) r.fail(robot["root_rpy"], "robot.root_rpy", "expected [roll, pitch, yaw] in rad");
+      if (!(rpy.array().abs() <= 2.0 * M_PI).all()) {
+        std::ostringstream msg;
+        msg << "expected [roll, pitch, yaw] in rad, each within [-2 pi, 2 pi] (degrees?), got " << rpy[0] << ", "
+            << rpy[1] << ", " << rpy[2];
+        r.fail(robot["root_rpy"], "robot.root_rpy", msg.str());
+      }
       s.urdf_options.root_rpy = rpy;
     }
     auto range = [&](const char* option, std::array<double, 2>& out) {
@@ -360,6 +369,13 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
             << " s; duration " << s.duration << " s): the event would never happen";
         r.fail(e["t"], field + ".t", msg.str());
       }
+      if (!s.events.empty() && ev.time < s.events.back().time) {  // a typo more often than a wish
+        std::ostringstream msg;
+        msg << ev.time << " s is before the previous event's " << s.events.back().time << " s ("
+            << s.events.back().field << ", line " << s.events.back().line
+            << "): list the events in the order of their times (events at the same time apply in the file's order)";
+        r.fail(e["t"], field + ".t", msg.str());
+      }
       ev.field = field;
       if (e["targets"]) ev.targets = read_targets(r, e["targets"], field + ".targets", ev.target_lines);
       if (e["relative_targets"])
@@ -372,7 +388,6 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
       if (ev.balance == 1) no_fixed_base(e["balance"], field + ".balance", "balance");
       s.events.push_back(ev);
     }
-    std::stable_sort(s.events.begin(), s.events.end(), [](const ScenarioEvent& a, const ScenarioEvent& b) { return a.time < b.time; });
   }
   return s;
 }

@@ -102,7 +102,7 @@ struct Scenario {
   std::vector<std::string> frozen;                      ///< initially frozen dofs
   int initial_line = 0, frozen_line = 0;                ///< for messages about unknown dofs
   std::vector<ScenarioTask> tasks;
-  std::vector<ScenarioEvent> events;                    ///< sorted by time
+  std::vector<ScenarioEvent> events;                    ///< in the order of their times (the file's; an event before the previous one is an error)
   BalanceSettings balance;
   WalkingSettings walking;
   FeetSettings feet;
