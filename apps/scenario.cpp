@@ -165,7 +165,8 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
   if (root["description"]) s.description = r.text(root["description"], "description");
   if (const YAML::Node robot = root["robot"]) {
     r.only(robot, "robot", {"builtin", "urdf", "root", "legs", "drop_legs", "root_height", "root_rpy", "default_limits",
-                            "upper_body_x_range", "upper_body_y_range", "ignore_xacro_elements", "fixed_base"});
+                            "upper_body_x_range", "upper_body_y_range", "ignore_xacro_elements", "fixed_base",
+                            "add_frames"});
     s.robot_line = r.line(robot);
     if (robot["builtin"] && r.text(robot["builtin"], "robot.builtin") != "paper")
       r.fail(robot["builtin"], "robot.builtin", "expected 'paper' (the only built-in model)");
@@ -175,7 +176,7 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
       if (!s.urdf.empty() && s.urdf[0] != '/') s.urdf = base_dir + "/" + s.urdf;
     } else {  // the import options would be ignored without a word
       for (const char* option : {"root", "legs", "drop_legs", "root_height", "root_rpy", "default_limits",
-                                 "upper_body_x_range", "upper_body_y_range", "ignore_xacro_elements"})
+                                 "upper_body_x_range", "upper_body_y_range", "ignore_xacro_elements", "add_frames"})
         if (robot[option])
           r.fail(robot[option], std::string("robot.") + option,
                  "an option of the URDF import; the built-in paper model takes none (add robot.urdf)");
@@ -211,6 +212,27 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
     if (robot["ignore_xacro_elements"])
       s.urdf_options.ignore_xacro_elements = r.boolean(robot["ignore_xacro_elements"], "robot.ignore_xacro_elements");
     if (robot["fixed_base"]) s.fixed_base = r.boolean(robot["fixed_base"], "robot.fixed_base");
+    if (const YAML::Node frames = robot["add_frames"]) {  // AddedFrame: hand points where the URDF has no link
+      if (!frames.IsSequence()) r.fail(frames, "robot.add_frames", "expected a list of {name, parent, xyz, rpy}");
+      for (size_t i = 0; i < frames.size(); ++i) {
+        const YAML::Node f = frames[i];
+        const std::string field = "robot.add_frames[" + std::to_string(i) + "]";
+        r.only(f, field, {"name", "parent", "xyz", "rpy"});
+        AddedFrame added;
+        if (!f["name"] || !f["parent"]) r.fail(f, field, "expected name and parent (a frame of the robot)");
+        added.name = r.text(f["name"], field + ".name");
+        added.parent = r.text(f["parent"], field + ".parent");
+        for (const auto& [key, out] : {std::pair{"xyz", &added.xyz}, std::pair{"rpy", &added.rpy}}) {
+          if (!f[key]) continue;
+          const Eigen::VectorXd v = r.vector(f[key], field + "." + key);
+          if (v.size() != 3 || !(v.array().abs() <= kMaxLength).all())
+            r.fail(f[key], field + "." + key,
+                   std::string(key) == "xyz" ? "expected [x, y, z] in m, finite" : "expected [roll, pitch, yaw] in rad, finite");
+          *out = v;
+        }
+        s.urdf_options.added_frames.push_back(added);
+      }
+    }
   }
   // A fixed base keeps the nine virtual dofs frozen; balance shifts the upper body and
   // walking moves the heel, both through those dofs.

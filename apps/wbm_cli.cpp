@@ -1,6 +1,7 @@
 // wbm: command-line tool. Subcommands: model info | model fk | model export.
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -33,6 +34,7 @@ struct ModelSource {
   bool drop_legs = false;
   CLI::Option* root_height_option = nullptr;
   std::vector<double> root_rpy, upper_body_x_range, upper_body_y_range;
+  std::vector<std::string> added_frames;
 
   void add_to(CLI::App& app) {
     app.add_option("file", file, "URDF file (default: the built-in paper model)");
@@ -63,9 +65,14 @@ struct ModelSource {
                    "range of the upper body's sideways shift: lower,upper [m] (default -0.08,0.08)")
         ->delimiter(',')
         ->expected(2);
+    app.add_option("--add-frame", added_frames,
+                   "a frame to add, NAME:PARENT:X,Y,Z[:ROLL,PITCH,YAW], fixed to the frame PARENT at that position "
+                   "[m] and orientation [rad] in it, e.g. a hand point at a forearm's end; repeatable");
   }
 
   wbm::Model load() {
+    if (file.empty() && !added_frames.empty())
+      throw wbm::ConfigError("--add-frame: an option of the URDF import; the built-in paper model takes none (give a URDF file)");
     if (file.empty()) return wbm::make_paper_model();
     // NaN is the library's "from the legs"; typed on the command line it is a mistake.
     if (root_height_option->count() > 0 && std::isnan(urdf.root_height))
@@ -74,6 +81,7 @@ struct ModelSource {
     if (!upper_body_x_range.empty()) urdf.upper_body_x_range = {upper_body_x_range[0], upper_body_x_range[1]};
     if (!upper_body_y_range.empty()) urdf.upper_body_y_range = {upper_body_y_range[0], upper_body_y_range[1]};
     urdf.leg_mode = drop_legs ? wbm::LegMode::kDrop : wbm::LegMode::kLock;
+    for (const std::string& text : added_frames) urdf.added_frames.push_back(wbm::parse_added_frame(text));
     return wbm::load_urdf(file, urdf);
   }
 };
@@ -121,10 +129,13 @@ int model_info(ModelSource& source, bool as_json) {
   std::cout << "model " << model.name() << ": " << model.num_dofs() << " dofs, " << model.num_bodies() << " bodies, "
             << model.num_frames() << " frames, total mass " << std::fixed << std::setprecision(3) << model.total_mass()
             << " kg\n\n";
-  std::cout << " idx  name                         type        role              lower      upper  max speed  weight(range)\n";
+  int name_width = 28;  // wider for longer names, so that the columns stay aligned
+  for (int i = 0; i < model.num_dofs(); ++i) name_width = std::max(name_width, static_cast<int>(model.dof(i).name.size()));
+  std::cout << " idx  " << std::left << std::setw(name_width) << "name" << std::right
+            << " type        role              lower      upper  max speed  weight(range)\n";
   for (int i = 0; i < model.num_dofs(); ++i) {
     const wbm::Dof& d = model.dof(i);
-    std::cout << std::setw(4) << i << "  " << std::left << std::setw(28) << d.name << " " << std::setw(11)
+    std::cout << std::setw(4) << i << "  " << std::left << std::setw(name_width) << d.name << " " << std::setw(11)
               << (d.continuous ? "continuous" : wbm::to_string(d.type)) << " " << std::setw(16) << wbm::to_string(d.role)
               << std::right << std::setw(9) << d.lower << "  " << std::setw(9) << d.upper << "  " << std::setw(9)
               << d.max_speed << "  " << std::setw(9) << d.work_range << "\n";
@@ -259,24 +270,25 @@ int run_scenarios(const std::vector<std::string>& files, const std::string& out,
     wbm::run_scenario(s, check);
     check_output_directory(directory(s));
   }
+  // The results on stdout (`wbm run ... > log` keeps them), the progress on stderr.
   for (const wbm::Scenario& s : scenarios) {
     const std::string dir = directory(s);
-    std::cerr << "scenario " << s.name << " (" << s.duration << " s at dt = " << s.dt * 1e3 << " ms)\n";
+    std::cout << "scenario " << s.name << " (" << s.duration << " s at dt = " << s.dt * 1e3 << " ms)\n";
     wbm::RunOptions options;
     options.progress = true;
     const auto run = wbm::run_scenario(s, options);
     wbm::write_outputs(*run, dir, !no_report);
     const json summary = wbm::summarize(*run);
-    for (const json& note : summary["model_notes"]) std::cerr << "  note: " << note.get<std::string>() << "\n";
-    for (const json& note : summary["task_notes"]) std::cerr << "  note: " << note.get<std::string>() << "\n";
+    for (const json& note : summary["model_notes"]) std::cout << "  note: " << note.get<std::string>() << "\n";
+    for (const json& note : summary["task_notes"]) std::cout << "  note: " << note.get<std::string>() << "\n";
     for (const auto& [name, e] : summary["elements"].items()) {
-      std::cerr << "  " << name << ": ";
-      if (e["final_error"].is_null()) std::cerr << "inactive at the end\n";
-      else std::cerr << "final error " << e["final_error"].get<double>() << " " << e["unit"].get<std::string>() << "\n";
+      std::cout << "  " << name << ": ";
+      if (e["final_error"].is_null()) std::cout << "inactive at the end\n";
+      else std::cout << "final error " << e["final_error"].get<double>() << " " << e["unit"].get<std::string>() << "\n";
     }
     // Why a target may be unmet: the last cycle damped, joints at a position limit.
     if (const std::string why = wbm::describe_last_cycle(summary["at_end"]); !why.empty())
-      std::cerr << "  last cycle: " << why << "\n";
+      std::cout << "  last cycle: " << why << "\n";
     {  // how close the joints came to their speed limits and to the bound on their acceleration
       std::ostringstream joints;
       joints << std::fixed << std::setprecision(2) << "  joints: fastest at " << summary["max_joint_speed"]["ratio_to_limit"].get<double>()
@@ -286,29 +298,29 @@ int run_scenarios(const std::vector<std::string>& files, const std::string& out,
         joints << ", largest acceleration " << a["ratio"].get<double>() << " of its bound k v_max ("
                << a["dof"].get<std::string>() << ")";
       }
-      std::cerr << joints.str() << "\n";
+      std::cout << joints.str() << "\n";
     }
     if (summary.contains("balance") && summary["balance"]["final_com_margin"].is_number()) {
       const double margin = summary["balance"]["final_com_margin"].get<double>();
       std::ostringstream cm;
       cm << std::fixed << std::setprecision(1) << std::abs(margin) * 100.0;
       const bool on = summary["balance"]["on_at_end"].get<bool>();
-      std::cerr << "  balance: centre of mass " << cm.str() << " cm "
+      std::cout << "  balance: centre of mass " << cm.str() << " cm "
                 << (margin >= 0.0 ? "inside the feet at the end"
                     : on          ? "OUTSIDE the feet at the end (the upper-body shift could not bring it over them)"
                                   : "OUTSIDE the feet at the end")
                 << (on ? "\n" : " (balance off)\n");
       // The shift held at a limit of its range: name the range to widen and by how much.
       for (const json& a : summary["balance"]["shift_at_limit"])
-        std::cerr << "  balance: " << wbm::describe_shift_at_limit(a, summary["balance"]["balanced_cycles"].get<int>()) << "\n";
+        std::cout << "  balance: " << wbm::describe_shift_at_limit(a, summary["balance"]["balanced_cycles"].get<int>()) << "\n";
     }
     if (summary.contains("walking")) {
       const json& w = summary["walking"];
       const int walks = w["walks"].get<int>();
-      std::cerr << "  walking: " << w["footsteps"].get<int>() << " footsteps in " << walks << (walks == 1 ? " walk" : " walks")
+      std::cout << "  walking: " << w["footsteps"].get<int>() << " footsteps in " << walks << (walks == 1 ? " walk" : " walks")
                 << (w["walking_at_end"].get<bool>() ? ", still walking at the end\n" : "\n");
     }
-    std::cerr << "  wrote " << dir << "/{trajectory.csv,summary.json" << (no_report ? "" : ",report.html") << "}\n";
+    std::cout << "  wrote " << dir << "/{trajectory.csv,summary.json" << (no_report ? "" : ",report.html") << "}\n";
   }
   return 0;
 }

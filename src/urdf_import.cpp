@@ -749,6 +749,39 @@ void check_virtual_names(const UrdfChecker& checker, const TreeBuilder& tree, do
 
 }  // namespace
 
+AddedFrame parse_added_frame(const std::string& text) {
+  const std::string expected =
+      "--add-frame '" + text + "': expected NAME:PARENT:X,Y,Z or NAME:PARENT:X,Y,Z:ROLL,PITCH,YAW (a new frame's name, a "
+      "frame of the robot, the position in it in m, the orientation in rad)";
+  std::vector<std::string> parts;
+  std::stringstream in(text);
+  for (std::string part; std::getline(in, part, ':');) parts.push_back(part);
+  if (parts.size() < 3 || parts.size() > 4 || parts[0].empty() || parts[1].empty()) throw ConfigError(expected);
+  const auto vector = [&](const std::string& numbers) {
+    Vector3 v;
+    std::stringstream values(numbers);
+    std::string value;
+    for (int k = 0; k < 3; ++k) {
+      if (!std::getline(values, value, ',')) throw ConfigError(expected);
+      std::size_t used = 0;
+      try {
+        v[k] = std::stod(value, &used);
+      } catch (const std::exception&) {
+        throw ConfigError(expected);
+      }
+      if (used != value.size() || !std::isfinite(v[k])) throw ConfigError(expected);
+    }
+    if (std::getline(values, value, ',')) throw ConfigError(expected);
+    return v;
+  };
+  AddedFrame frame;
+  frame.name = parts[0];
+  frame.parent = parts[1];
+  frame.xyz = vector(parts[2]);
+  if (parts.size() == 4) frame.rpy = vector(parts[3]);
+  return frame;
+}
+
 Model load_urdf(const std::string& path, const UrdfImportOptions& options) {
   struct stat status {};  // an ifstream opens a directory, which then reads as an empty document
   if (::stat(path.c_str(), &status) == 0 && S_ISDIR(status.st_mode))
@@ -810,9 +843,12 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
     const double depth = -tree.lowest_leg_z_;
     if (depth < 0.1 * tree.leg_length_) {
       std::ostringstream msg;
-      msg << "leg link " << quoted(tree.lowest_leg_link_) << ", the legs' lowest at zero joint values, is "
-          << (depth > 0.0 ? std::to_string(depth) + " m below" : "not below")
-          << " the root link's origin, less than a tenth of the legs' length (" << tree.leg_length_
+      msg << "leg link " << quoted(tree.lowest_leg_link_) << ", the legs' lowest at zero joint values, is ";
+      if (depth > 0.0)
+        msg << depth << " m below";
+      else
+        msg << "not below";
+      msg << " the root link's origin, less than a tenth of the legs' length (" << tree.leg_length_
           << " m from a leg's first link to its farthest): the legs do not point down. If the root link's z axis is "
              "not up, give its orientation (root_rpy, --root-rpy); if its origin lies at the feet (as in some CAD "
              "exports), choose a link at the hips or above as the root (root, --root)"
@@ -871,11 +907,35 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
     builder.add_body(body);
     frame_index[body.name] = builder.num_frames() - 1;
   }
+  std::map<std::string, Frame> placed;  // every frame's body and pose in it, for the added frames
+  for (size_t i = 0; i < tree.specs_.size(); ++i)
+    placed[tree.specs_[i].body.name] = Frame{tree.specs_[i].body.name, i == 0 ? ub : ub + static_cast<int>(i), {}};
   for (Frame frame : tree.frames_) {
     frame.body = frame.body == 0 ? ub : ub + frame.body;
     frame_index[frame.name] = builder.add_frame(frame);
+    placed[frame.name] = frame;
   }
   for (const auto& [name, parent] : tree.parent_of_) builder.set_frame_parent(frame_index.at(name), frame_index.at(parent));
+  for (const AddedFrame& added : options.added_frames) {
+    const std::string what = source + ": added frame " + quoted(added.name) + " (added_frames, --add-frame): ";
+    if (added.name.empty()) throw ParseError(source + ": added frame on " + quoted(added.parent) + ": the name is empty");
+    if (frame_index.count(added.name)) throw ParseError(what + "the model already has a frame of that name");
+    const auto parent = placed.find(added.parent);
+    if (parent == placed.end()) {
+      std::vector<std::string> names;
+      for (const auto& entry : placed) names.push_back(entry.first);
+      throw ParseError(what + "no frame named " + quoted(added.parent) +
+                       (checker.has_link(added.parent) ? " (a link of a dropped leg)"
+                                                       : internal::did_you_mean(added.parent, names)));
+    }
+    if (!added.xyz.allFinite() || !added.rpy.allFinite() || added.xyz.lpNorm<Eigen::Infinity>() > kMaxLength)
+      throw ParseError(what + "its position and orientation must be finite (position within 1e6 m)");
+    Frame frame{added.name, parent->second.body,
+                parent->second.X_BF * Transform{rotation_from_rpy(added.rpy.x(), added.rpy.y(), added.rpy.z()), added.xyz}};
+    frame_index[added.name] = builder.add_frame(frame);
+    builder.set_frame_parent(frame_index[added.name], frame_index.at(added.parent));
+    placed[added.name] = frame;
+  }
   try {
     return builder.build();
   } catch (const ModelError& e) {

@@ -354,6 +354,28 @@ void expect_cli_error(const std::string& args, const std::string& message) {
   EXPECT_TRUE(r.out.empty()) << r.out;
 }
 
+// --add-frame (repeatable): frames fixed to a frame of the URDF, as the library adds them.
+TEST(Cli, ModelFkWithAddedFrames) {
+  const wbm_test::ShippedModel& h1 = wbm_test::shipped_model("h1");
+  const std::string file = "model fk '" + h1.path + "' --legs left_hip_yaw_link,right_hip_yaw_link";
+  const json j = parse(wbm_cli(file + " --add-frame tip:left_elbow_link:0.3,0,0 --add-frame "
+                                      "cam:d435_rgb_module_link:0,0,0:0,0,1.5 --frames tip,cam,left_elbow_link --json"));
+  wbm::UrdfImportOptions options = h1.options;
+  options.added_frames = {wbm::AddedFrame{"tip", "left_elbow_link", wbm::Vector3(0.3, 0, 0), wbm::Vector3::Zero()}};
+  const wbm::Model model = wbm::load_urdf(h1.path, options);
+  wbm::Data data(model);
+  wbm::forward_kinematics(model, data, model.home());
+  const wbm::Vector3 p = wbm::frame_position(model, data, model.frame_index("tip"));
+  for (int r = 0; r < 3; ++r) EXPECT_NEAR(j["frames"]["tip"]["position"][r].get<double>(), p[r], 1e-12) << j;
+  EXPECT_TRUE(j["frames"].contains("cam")) << j;
+  expect_cli_error(file + " --add-frame tip:left_elbow_link:0.3,0", "--add-frame 'tip:left_elbow_link:0.3,0': expected "
+                                                                     "NAME:PARENT:X,Y,Z or NAME:PARENT:X,Y,Z:ROLL,PITCH,YAW");
+  expect_cli_error(file + " --add-frame tip:no_link:0,0,0",
+                   "added frame 'tip' (added_frames, --add-frame): no frame named 'no_link'");
+  expect_cli_error("model fk --add-frame tip:l_hand_ref:0,0,0",
+                   "--add-frame: an option of the URDF import; the built-in paper model takes none (give a URDF file)");
+}
+
 TEST(Cli, UnknownFrameFails) {
   expect_cli_error("model fk --frames no_such_frame --json", "no frame named 'no_such_frame'");
 }
@@ -374,7 +396,7 @@ TEST(Cli, RunChecksEveryScenarioBeforeRunningAny) {
   EXPECT_NE(r.err.find("_bad.yaml:4: tasks[0]: model 'paper_asimo_like' has no frame named 'no_such_frame'"),
             std::string::npos)
       << r.err;
-  EXPECT_EQ(r.err.find("scenario good"), std::string::npos) << r.err;
+  EXPECT_EQ(r.out.find("scenario good"), std::string::npos) << r.out;
   EXPECT_NE(access(out.c_str(), F_OK), 0) << out << " was created";
   std::remove(good.c_str());
   std::remove(bad.c_str());
@@ -393,7 +415,7 @@ TEST(Cli, RunRefusesTwoScenariosOfOneName) {
                        out + "/same"),
             std::string::npos)
       << r.err;
-  EXPECT_EQ(r.err.find("scenario same"), std::string::npos) << r.err;
+  EXPECT_EQ(r.out.find("scenario same"), std::string::npos) << r.out;
   EXPECT_NE(access(out.c_str(), F_OK), 0) << out << " was created";
   std::remove(first.c_str());
   std::remove(second.c_str());
@@ -473,7 +495,7 @@ TEST(Cli, RunWithAnOutputThatIsAFileFails) {
     EXPECT_EQ(r.status, 1) << r.err;
     EXPECT_NE(r.err.find("wbm: error: " + out + ": "), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("is not a directory (--out)"), std::string::npos) << r.err;
-    EXPECT_EQ(r.err.find("scenario x"), std::string::npos) << r.err;
+    EXPECT_EQ(r.out.find("scenario x"), std::string::npos) << r.out;
   }
   std::remove(scenario.c_str());
   std::remove(file.c_str());
@@ -489,7 +511,7 @@ TEST(Cli, RunWithAnOutputNameTooLongFails) {
   EXPECT_EQ(r.status, 1) << r.err;
   EXPECT_NE(r.err.find("wbm: error: " + out + ": cannot be created: 'oooo"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("' is longer than a file name may be (255 bytes; --out)"), std::string::npos) << r.err;
-  EXPECT_EQ(r.err.find("scenario x"), std::string::npos) << r.err;
+  EXPECT_EQ(r.out.find("scenario x"), std::string::npos) << r.out;
   EXPECT_NE(access((base + "_dir").c_str(), F_OK), 0) << base << "_dir was created";
   std::remove(scenario.c_str());
 }
@@ -509,12 +531,13 @@ TEST(Cli, RunSaysTheModelsNotes) {
   std::ofstream(base + "_plain.yaml") << "name: plain\n" << robot << "}\n" << rest;
   const CliRun r = wbm_cli("run '" + base + "_turned.yaml' '" + base + "_plain.yaml' --out '" + base + "_dir' --no-report");
   EXPECT_EQ(r.status, 0) << r.err;
-  const size_t turned = r.err.find("scenario turned"), plain = r.err.find("scenario plain");
-  ASSERT_TRUE(turned != std::string::npos && plain != std::string::npos) << r.err;
-  EXPECT_NE(r.err.substr(turned, plain - turned).find("  note: the legs point backward rather than down"),
+  EXPECT_EQ(r.err.find("scenario "), std::string::npos) << r.err;  // the results on stdout
+  const size_t turned = r.out.find("scenario turned"), plain = r.out.find("scenario plain");
+  ASSERT_TRUE(turned != std::string::npos && plain != std::string::npos) << r.out;
+  EXPECT_NE(r.out.substr(turned, plain - turned).find("  note: the legs point backward rather than down"),
             std::string::npos)
-      << r.err;
-  EXPECT_EQ(r.err.substr(plain).find("note:"), std::string::npos) << r.err;
+      << r.out;
+  EXPECT_EQ(r.out.substr(plain).find("note:"), std::string::npos) << r.out;
   std::filesystem::remove_all(base + "_dir");
   std::remove((base + "_turned.yaml").c_str());
   std::remove((base + "_plain.yaml").c_str());
@@ -540,25 +563,25 @@ TEST(Cli, RunSaysHowBalanceAndWalkingEnded) {
   const CliRun r = wbm_cli("run '" + inside + "' '" + outside + "' '" + walk + "' '" + off + "' '" + long_feet +
                            "' --out '" + base + "_dir' --no-report");
   EXPECT_EQ(r.status, 0) << r.err;
-  const size_t in = r.err.find("scenario in"), out = r.err.find("scenario out"), w = r.err.find("scenario walk");
-  ASSERT_TRUE(in != std::string::npos && out != std::string::npos && w != std::string::npos) << r.err;
-  const size_t o = r.err.find("scenario off");
-  ASSERT_NE(o, std::string::npos) << r.err;
-  EXPECT_NE(r.err.substr(o).find(" cm OUTSIDE the feet at the end (balance off)\n"), std::string::npos) << r.err;
-  EXPECT_NE(r.err.substr(in, out - in).find(" cm inside the feet at the end"), std::string::npos) << r.err;
-  EXPECT_NE(r.err.substr(out, w - out).find(" cm OUTSIDE the feet at the end (the upper-body shift could not"),
+  const size_t in = r.out.find("scenario in"), out = r.out.find("scenario out"), w = r.out.find("scenario walk");
+  ASSERT_TRUE(in != std::string::npos && out != std::string::npos && w != std::string::npos) << r.out;
+  const size_t o = r.out.find("scenario off");
+  ASSERT_NE(o, std::string::npos) << r.out;
+  EXPECT_NE(r.out.substr(o).find(" cm OUTSIDE the feet at the end (balance off)\n"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.substr(in, out - in).find(" cm inside the feet at the end"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.substr(out, w - out).find(" cm OUTSIDE the feet at the end (the upper-body shift could not"),
             std::string::npos)
-      << r.err;
-  EXPECT_NE(r.err.substr(w, o - w).find("  walking: 0 footsteps in 0 walks\n"), std::string::npos) << r.err;
-  EXPECT_EQ(r.err.substr(w, o - w).find("balance:"), std::string::npos) << r.err;
-  const size_t l = r.err.find("scenario long");
-  ASSERT_NE(l, std::string::npos) << r.err;
-  EXPECT_NE(r.err.substr(l).find("  balance: upper_body_x held at its limit 14.0 cm in "), std::string::npos) << r.err;
-  EXPECT_NE(r.err.substr(l).find("the built-in paper model's range is fixed"), std::string::npos) << r.err;
-  EXPECT_EQ(r.err.substr(0, l).find("held at its limit"), std::string::npos) << r.err;
+      << r.out;
+  EXPECT_NE(r.out.substr(w, o - w).find("  walking: 0 footsteps in 0 walks\n"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.substr(w, o - w).find("balance:"), std::string::npos) << r.out;
+  const size_t l = r.out.find("scenario long");
+  ASSERT_NE(l, std::string::npos) << r.out;
+  EXPECT_NE(r.out.substr(l).find("  balance: upper_body_x held at its limit 14.0 cm in "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.substr(l).find("the built-in paper model's range is fixed"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.substr(0, l).find("held at its limit"), std::string::npos) << r.out;
   // And how close the joints came to their speed limits and to the bound on their rates' change.
-  EXPECT_NE(r.err.substr(in, out - in).find("  joints: fastest at 0."), std::string::npos) << r.err;
-  EXPECT_NE(r.err.substr(in, out - in).find(" of its bound k v_max (upper_body_"), std::string::npos) << r.err;
+  EXPECT_NE(r.out.substr(in, out - in).find("  joints: fastest at 0."), std::string::npos) << r.out;
+  EXPECT_NE(r.out.substr(in, out - in).find(" of its bound k v_max (upper_body_"), std::string::npos) << r.out;
   for (const std::string& f : {inside, outside, walk, off, long_feet}) std::remove(f.c_str());
   std::filesystem::remove_all(base + "_dir");
 }

@@ -623,6 +623,113 @@ TEST(UrdfImport, ALongListOfNamesSaysHowManyItLeavesOut) {
   }
 }
 
+// Frames added to an imported model (a hand point at the end of H1's forearm, where the URDF
+// has no link): where the parent frame puts them on random configurations, with a Jacobian
+// that matches central differences of their pose, drawn from their parent, and exported and
+// imported again with the same pose.
+TEST(UrdfImport, AddedFramesSitOnTheirParentFrames) {
+  const ShippedModel& h1 = wbm_test::shipped_model("h1");
+  wbm::UrdfImportOptions options = h1.options;
+  const Vector3 xyz(0.3, 0.01, -0.02), rpy(0.1, -0.4, 0.7);
+  options.added_frames = {wbm::AddedFrame{"left_hand_point", "left_elbow_link", xyz, rpy},
+                          wbm::AddedFrame{"on_the_point", "left_hand_point", Vector3(0.05, 0, 0), Vector3::Zero()},
+                          wbm::AddedFrame{"camera_tip", "d435_rgb_module_link", Vector3(0.01, 0, 0), Vector3::Zero()}};
+  const Model model = wbm::load_urdf(h1.path, options);
+  const Model plain = h1.load();
+  ASSERT_EQ(model.num_frames(), plain.num_frames() + 3);
+  const int point = model.frame_index("left_hand_point"), elbow = model.frame_index("left_elbow_link");
+  EXPECT_EQ(model.frame(point).parent, elbow);
+  EXPECT_EQ(model.frame(model.frame_index("on_the_point")).parent, point);
+  const Transform X_LP{wbm::rotation_from_rpy(rpy.x(), rpy.y(), rpy.z()), xyz};
+  std::mt19937_64 rng(71);
+  Data data(model);
+  Eigen::MatrixXd J(6, model.num_dofs()), J_fd(6, model.num_dofs());
+  for (int c = 0; c < 50; ++c) {
+    const Eigen::VectorXd q = wbm_test::random_configuration(model, rng);
+    wbm::forward_kinematics(model, data, q);
+    const Transform expected = wbm::frame_pose(model, data, elbow) * X_LP;
+    const Transform actual = wbm::frame_pose(model, data, point);
+    ASSERT_LT((actual.p - expected.p).norm(), 1e-12) << c;
+    ASSERT_LT((actual.R - expected.R).norm(), 1e-12) << c;
+    const Vector3 on = (wbm::frame_pose(model, data, model.frame_index("on_the_point")).p);
+    ASSERT_LT((on - actual * Vector3(0.05, 0, 0)).norm(), 1e-12) << c;
+    wbm::frame_jacobian(model, data, point, J);
+    Data moved(model);
+    constexpr double h = 1e-6;
+    for (int i = 0; i < model.num_dofs(); ++i) {
+      Eigen::VectorXd plus = q, minus = q;
+      plus[i] += h;
+      minus[i] -= h;
+      wbm::forward_kinematics(model, moved, plus);
+      const Transform a = wbm::frame_pose(model, moved, point);
+      wbm::forward_kinematics(model, moved, minus);
+      const Transform b = wbm::frame_pose(model, moved, point);
+      J_fd.col(i).head<3>() = (a.p - b.p) / (2 * h);
+      const Eigen::Matrix3d dR = (a.R - b.R) / (2 * h) * actual.R.transpose();
+      J_fd.col(i).tail<3>() = Vector3(dR(2, 1), dR(0, 2), dR(1, 0));
+    }
+    ASSERT_LT((J - J_fd).cwiseAbs().maxCoeff(), 1e-6) << c << "\n" << J << "\n" << J_fd;
+  }
+  // The export writes it as a fixed link: imported again, the same pose.
+  wbm::UrdfImportOptions again = h1.options;
+  again.root_height = model.dof(model.virtual_dofs().ub_z).upper;
+  const Model back = wbm::parse_urdf(wbm::export_urdf(model), again, "h1_added.urdf");
+  Data back_data(back);
+  const Eigen::VectorXd q = wbm_test::random_configuration(model, rng);
+  wbm::forward_kinematics(model, data, q);
+  wbm::forward_kinematics(back, back_data, q);
+  EXPECT_LT((wbm::frame_pose(back, back_data, back.frame_index("left_hand_point")).p - wbm::frame_pose(model, data, point).p)
+                .norm(),
+            1e-9);
+}
+
+TEST(UrdfImport, AddedFramesThatDoNotFitAreErrors) {
+  const ShippedModel& h1 = wbm_test::shipped_model("h1");
+  const auto message = [&](const wbm::AddedFrame& frame, wbm::LegMode legs = wbm::LegMode::kLock) {
+    wbm::UrdfImportOptions options = h1.options;
+    options.leg_mode = legs;
+    options.added_frames = {frame};
+    try {
+      wbm::load_urdf(h1.path, options);
+    } catch (const wbm::ParseError& e) {
+      return std::string(e.what());
+    }
+    return std::string("(loaded)");
+  };
+  const std::string prefix = h1.path + ": added frame ";
+  EXPECT_EQ(message({"torso_link", "left_elbow_link", Vector3::Zero(), Vector3::Zero()}),
+            prefix + "'torso_link' (added_frames, --add-frame): the model already has a frame of that name");
+  EXPECT_EQ(message({"p", "left_elbow", Vector3::Zero(), Vector3::Zero()}).rfind(
+                prefix + "'p' (added_frames, --add-frame): no frame named 'left_elbow' (did you mean 'left_elbow_link'", 0),
+            0u);
+  EXPECT_NE(message({"p", "left_ankle_link", Vector3::Zero(), Vector3::Zero()}, wbm::LegMode::kDrop)
+                .find("no frame named 'left_ankle_link' (a link of a dropped leg)"),
+            std::string::npos);
+  EXPECT_EQ(message({"p", "left_ankle_link", Vector3::Zero(), Vector3::Zero()}), "(loaded)");  // a locked leg's link
+  EXPECT_EQ(message({"p", "left_elbow_link", Vector3(0, std::nan(""), 0), Vector3::Zero()}),
+            prefix + "'p' (added_frames, --add-frame): its position and orientation must be finite (position within 1e6 m)");
+  // The command-line form.
+  const wbm::AddedFrame parsed = wbm::parse_added_frame("tip:left_elbow_link:0.3,0,-0.02:0,1.5,0");
+  EXPECT_EQ(parsed.name, "tip");
+  EXPECT_EQ(parsed.parent, "left_elbow_link");
+  EXPECT_EQ(parsed.xyz, Vector3(0.3, 0, -0.02));
+  EXPECT_EQ(parsed.rpy, Vector3(0, 1.5, 0));
+  EXPECT_EQ(wbm::parse_added_frame("tip:left_elbow_link:0.3,0,0").rpy, Vector3::Zero());
+  for (const char* bad : {"tip", "tip:link", "tip:link:1,2", "tip:link:1,2,3,4", "tip:link:1,2,x", ":link:1,2,3",
+                          "tip::1,2,3", "tip:link:1,2,3:0,0", "tip:link:1,2,3:0,0,0:9", "tip:link:1,2,nan"}) {
+    try {
+      wbm::parse_added_frame(bad);
+      ADD_FAILURE() << bad << " accepted";
+    } catch (const wbm::ConfigError& e) {
+      EXPECT_EQ(std::string(e.what()).rfind(std::string("--add-frame '") + bad +
+                                                "': expected NAME:PARENT:X,Y,Z or NAME:PARENT:X,Y,Z:ROLL,PITCH,YAW",
+                                            0),
+                0u)
+          << e.what();
+    }
+  }
+}
+
 TEST(PaperModel, GraspAxesForwardAndHandsBelowShouldersAtZeroArms) {
   const Model model = wbm::make_paper_model();
   Data data(model);

@@ -1297,6 +1297,42 @@ TEST(Scenarios, AJointTargetOutsideItsRangeIsNoted) {
   EXPECT_EQ(notes("relative_targets: {j: [0.1, -9]}"), nlohmann::json::array());
 }
 
+// robot.add_frames: a hand point at the end of H1's forearm (no URDF link marks it) is a
+// frame like any other: a position task on it reaches its target.
+TEST(Scenarios, AddedFramesCanCarryTasks) {
+  const wbm_test::ShippedModel& h1 = wbm_test::shipped_model("h1");
+  const auto run = run_scenario(parse_scenario(
+      "name: a\nrobot:\n  urdf: '" + h1.path + "'\n  legs: [left_hip_yaw_link, right_hip_yaw_link]\n"
+      "  add_frames: [{name: left_hand_point, parent: left_elbow_link, xyz: [0.3, 0, 0]}]\n"
+      "duration: 2\nfrozen: [heel_x, heel_y, heel_yaw]\n"
+      "tasks: [{name: hand, type: position, frame: left_hand_point}]\n"
+      "timeline: [{t: 0.1, activate: [hand], relative_targets: {hand: [0.05, 0.0, 0.05]}}]\n",
+      "a.yaml", "."));
+  const nlohmann::json summary = summarize(*run);
+  EXPECT_LT(summary["elements"]["hand"]["final_error"].get<double>(), 1.0) << summary["elements"];  // [mm], of 71
+  // Errors name the field and line; the built-in model takes no URDF options.
+  const auto error = [](const std::string& text) {
+    try {
+      parse_scenario(text, "bad.yaml", ".");
+    } catch (const wbm::Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("(parsed)");
+  };
+  const std::string head = "name: x\nrobot:\n  urdf: h1.urdf\n";
+  const std::string tasks = "tasks: [{name: a, type: position, frame: f}]\n";
+  EXPECT_EQ(error(head + "  add_frames: {name: p}\n" + tasks),
+            "bad.yaml:4: robot.add_frames: expected a list of {name, parent, xyz, rpy}");
+  EXPECT_EQ(error(head + "  add_frames: [{name: p, xyz: [0, 0, 0]}]\n" + tasks),
+            "bad.yaml:4: robot.add_frames[0]: expected name and parent (a frame of the robot)");
+  EXPECT_EQ(error(head + "  add_frames: [{name: p, parent: l, xyz: [0, 0]}]\n" + tasks),
+            "bad.yaml:4: robot.add_frames[0].xyz: expected [x, y, z] in m, finite");
+  EXPECT_EQ(error(head + "  add_frames: [{name: p, parent: l, rpy: [0, 0, 1e9]}]\n" + tasks),
+            "bad.yaml:4: robot.add_frames[0].rpy: expected [roll, pitch, yaw] in rad, finite");
+  EXPECT_EQ(error("name: x\nrobot:\n  builtin: paper\n  add_frames: [{name: p, parent: l}]\n" + tasks),
+            "bad.yaml:4: robot.add_frames: an option of the URDF import; the built-in paper model takes none (add robot.urdf)");
+}
+
 TEST(Scenarios, AnElementNoFreeDofMovesIsNoted) {
   const std::string robot =
       "robot: {urdf: '" + wbm_test::source_path("models/dual_arm/dual_arm.urdf") + "', fixed_base: true}\n";

@@ -56,7 +56,7 @@ const std::vector<Case>& catalogue() {
        "", {"thigh_l", "thigh_r"}},
       // The root link's origin at the feet: the links welded to it higher up are named as roots.
       {"root_at_feet.urdf",
-       "root_at_feet.urdf:10: leg link 'foot_l', the legs' lowest at zero joint values, is not below the root link's "
+       "root_at_feet.urdf:11: leg link 'foot_l', the legs' lowest at zero joint values, is not below the root link's "
        "origin, less than a tenth of the legs' length (0.55 m from a leg's first link to its farthest): the legs do not "
        "point down. If the root link's z axis is not up, give its orientation (root_rpy, --root-rpy); if its origin lies "
        "at the feet (as in some CAD exports), choose a link at the hips or above as the root (root, --root) (links "

@@ -19,6 +19,22 @@ enum class LegMode {
   kDrop,  ///< Remove them with their mass.
 };
 
+/// A frame added to the model, fixed to a frame of the URDF (a link, or a link welded to
+/// one) at a pose given in that frame: a hand point where the URDF has no link for it (H1's
+/// elbow links carry its forearms, whose ends no link marks; a tool centre point). Tasks,
+/// reports and the export treat it as any other named frame.
+struct AddedFrame {
+  std::string name;    ///< new, not a name of the model
+  std::string parent;  ///< a frame of the imported model (a URDF link, kept or locked)
+  Vector3 xyz = Vector3::Zero();  ///< position in `parent` [m]
+  Vector3 rpy = Vector3::Zero();  ///< orientation in `parent`, URDF roll, pitch, yaw [rad]
+};
+
+/// "NAME:PARENT:X,Y,Z" or "NAME:PARENT:X,Y,Z:ROLL,PITCH,YAW" (m, rad), as the command-line
+/// tools take it (--add-frame).
+/// @throws ConfigError naming the text and the expected form.
+AddedFrame parse_added_frame(const std::string& text);
+
 struct UrdfImportOptions {
   /// Link that becomes the upper body (e.g. "pelvis", "torso"). Empty: the URDF's root
   /// link, or the child of a root link named "world".
@@ -27,8 +43,9 @@ struct UrdfImportOptions {
   /// the root starting at this link is a leg. The link's own joint belongs to the leg.
   std::vector<std::string> legs;
   LegMode leg_mode = LegMode::kLock;  ///< kDrop needs `legs` (else ParseError).
-  /// Height of the root link origin above the ground [m]. NaN: from the legs (the lowest
-  /// leg link origin at zero joint values); without legs, where `root` is not given and the
+  /// Height of the root link origin above the ground [m]. NaN: from the legs (their lowest
+  /// point at zero joint values: a leg link's origin or the lowest point of its collision and
+  /// visual spheres, boxes and cylinders, e.g. a sole below the ankle); without legs, where `root` is not given and the
   /// URDF's root link is a massless link cut off below the root (a base_link on the ground),
   /// the root's height above it; else 1 m.
   double root_height = std::numeric_limits<double>::quiet_NaN();
@@ -65,6 +82,9 @@ struct UrdfImportOptions {
   /// a `${...}` expression where wbm reads a name or number. An included file is not read.
   /// (Xacro elements inside other elements, e.g. <gazebo>, are passed over either way.)
   bool ignore_xacro_elements = false;
+  /// Frames to add (AddedFrame), after the URDF's; a name the model has, a parent it lacks
+  /// (or a dropped leg's link) or a pose that is not finite is a ParseError naming the frame.
+  std::vector<AddedFrame> added_frames;
 };
 
 /// Loads a URDF file.
