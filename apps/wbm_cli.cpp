@@ -102,12 +102,24 @@ std::vector<std::string> model_notes(const ModelSource& source, const wbm::Model
   return wbm::model_notes(model, !source.file.empty(), source.urdf.legs);
 }
 
+/// The link the virtual upper-body dofs carry (the URDF's root, or --root) and its height
+/// above the ground standing straight (upper_body_z's upper limit), or "" and NaN.
+std::pair<std::string, double> root_link(const wbm::Model& model) {
+  const wbm::VirtualDofs& v = model.virtual_dofs();
+  for (int b = 0; b < model.num_bodies() && v.ub_yaw >= 0 && v.ub_z >= 0; ++b)
+    if (model.body(b).dof == v.ub_yaw) return {model.body(b).name, model.dof(v.ub_z).upper};
+  return {"", std::nan("")};
+}
+
 int model_info(ModelSource& source, bool as_json) {
   const wbm::Model model = source.load();
+  const auto [root, root_height] = root_link(model);
   if (as_json) {
     json out;
     out["name"] = model.name();
     out["total_mass"] = model.total_mass();
+    out["root_link"] = root.empty() ? json(nullptr) : json(root);
+    out["root_height"] = number(root_height);
     json dofs = json::array();
     for (int i = 0; i < model.num_dofs(); ++i) {
       const wbm::Dof& d = model.dof(i);
@@ -128,7 +140,12 @@ int model_info(ModelSource& source, bool as_json) {
   }
   std::cout << "model " << model.name() << ": " << model.num_dofs() << " dofs, " << model.num_bodies() << " bodies, "
             << model.num_frames() << " frames, total mass " << std::fixed << std::setprecision(3) << model.total_mass()
-            << " kg\n\n";
+            << " kg\n";
+  if (!root.empty())
+    std::cout << "root link '" << root << "', " << root_height
+              << " m above the ground standing straight (upper_body_z's upper limit; how it is found: "
+                 "docs/model.md)\n";
+  std::cout << "\n";
   int name_width = 28;  // wider for longer names, so that the columns stay aligned
   for (int i = 0; i < model.num_dofs(); ++i) name_width = std::max(name_width, static_cast<int>(model.dof(i).name.size()));
   std::cout << " idx  " << std::left << std::setw(name_width) << "name" << std::right

@@ -182,6 +182,22 @@ TEST(Cli, ModelInfoNotesAModelWithoutMass) {
   EXPECT_EQ(dual_arm.out.find("has no mass"), std::string::npos) << dual_arm.out;
 }
 
+// The root link and its standing height (G1's from its soles: the ankle roll link's
+// collision spheres 3.5 cm below it).
+TEST(Cli, ModelInfoNamesTheRootLinkAndItsHeight) {
+  const wbm_test::ShippedModel& g1 = wbm_test::shipped_model("g1_29dof");
+  const wbm::Model model = g1.load();
+  const double height = model.dof(model.virtual_dofs().ub_z).upper;
+  const std::string info = "model info '" + g1.path + "' --legs left_hip_pitch_link,right_hip_pitch_link";
+  const json j = parse(wbm_cli(info + " --json"));
+  EXPECT_EQ(j["root_link"], "pelvis");
+  EXPECT_EQ(j["root_height"].get<double>(), height);
+  EXPECT_NEAR(height, 0.7925, 0.001);  // Unitree's own figure for the pelvis standing straight: 0.793 m
+  const CliRun r = wbm_cli(info);
+  EXPECT_NE(r.out.find("\nroot link 'pelvis', 0.79"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find(" m above the ground standing straight (upper_body_z's upper limit"), std::string::npos) << r.out;
+}
+
 TEST(Cli, ModelInfoJson) {
   const json j = parse(wbm_cli("model info --json"));
   ASSERT_TRUE(j.is_object());
