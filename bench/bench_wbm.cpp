@@ -29,7 +29,7 @@
 // Own flags (before Google Benchmark's): --wbm_urdf=FILE --wbm_root=LINK --wbm_legs=A,B
 // --wbm_hands=LEFT,RIGHT [--wbm_head=FRAME] [--wbm_com] [--wbm_posture=DOF,DOF,...] [--wbm_start=DOF=VALUE,...]
 // [--wbm_default_limits] [--wbm_ignore_xacro_elements] [--wbm_drop_legs] [--wbm_root_height=H] [--wbm_root_rpy=R,P,Y] [--wbm_fixed_base]
-// [--wbm_upper_body_x_range=LO,HI] [--wbm_upper_body_y_range=LO,HI]
+// [--wbm_upper_body_x_range=LO,HI] [--wbm_upper_body_y_range=LO,HI] [--wbm_add_frame=NAME:PARENT:X,Y,Z[:R,P,Y] ...]
 // [--wbm_id=NAME] register a fixture "<NAME>" (default "custom") on that model;
 // --wbm_loop=SECONDS [--wbm_rate=HZ] [--wbm_priority=P] [--wbm_spin] run the periodic
 // real-time loop (periodic_loop.hpp) on that fixture, or on paper_r12, g1_r20 and romeo_r12,
@@ -54,6 +54,7 @@
 #include "periodic_loop.hpp"
 #include "scaling.hpp"
 #include "wbm/controller.hpp"
+#include "wbm/errors.hpp"
 #include "wbm/trajectory_filter.hpp"
 
 namespace {
@@ -199,8 +200,12 @@ bool parse_own_flags(int& argc, char** argv, FixtureSpec& custom, LoopRequest& l
     const std::string a = argv[i];
     if (a.rfind("--wbm_", 0) == 0) {
       const std::size_t eq = a.find('=');
-      flags[a.substr(6, eq == std::string::npos ? std::string::npos : eq - 6)] =
-          eq == std::string::npos ? "1" : a.substr(eq + 1);
+      const std::string key = a.substr(6, eq == std::string::npos ? std::string::npos : eq - 6);
+      const std::string value = eq == std::string::npos ? "1" : a.substr(eq + 1);
+      if (key == "add_frame" && flags.count(key))  // repeatable: the frames joined by ';'
+        flags[key] += ";" + value;
+      else
+        flags[key] = value;
     } else {
       argv[out++] = argv[i];
     }
@@ -211,7 +216,7 @@ bool parse_own_flags(int& argc, char** argv, FixtureSpec& custom, LoopRequest& l
   if (flags.empty()) return false;
   static const char* known[] = {"urdf",      "root",        "legs",        "hands", "head", "com", "posture",
                                 "default_limits", "ignore_xacro_elements", "drop_legs", "root_height", "root_rpy",
-                                "upper_body_x_range", "upper_body_y_range", "fixed_base", "start", "id"};
+                                "upper_body_x_range", "upper_body_y_range", "fixed_base", "start", "add_frame", "id"};
   for (const auto& flag : flags)
     if (std::none_of(std::begin(known), std::end(known), [&](const char* k) { return flag.first == k; })) {
       error = "unknown flag --wbm_" + flag.first;
@@ -227,6 +232,14 @@ bool parse_own_flags(int& argc, char** argv, FixtureSpec& custom, LoopRequest& l
   options.default_limits = flags.count("default_limits") > 0;
   options.ignore_xacro_elements = flags.count("ignore_xacro_elements") > 0;
   if (flags.count("drop_legs")) options.leg_mode = wbm::LegMode::kDrop;
+  for (const std::string& frame : split(flags["add_frame"], ';')) {
+    try {
+      options.added_frames.push_back(wbm::parse_added_frame(frame));
+    } catch (const wbm::ConfigError& e) {
+      error = e.what();
+      return false;
+    }
+  }
   if (flags.count("root_height") && !parse_number("--root-height (--wbm_root_height)", flags["root_height"],
                                                    "a number of metres", options.root_height, error))
     return false;

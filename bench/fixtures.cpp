@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <functional>
 #include <limits>
 #include <map>
@@ -65,14 +64,6 @@ bool bolted_to_world(const std::string& xml) {
   for (const urdf::JointSharedPtr& joint : robot->getRoot()->child_joints)
     if (joint->type != urdf::Joint::FIXED) return false;
   return true;
-}
-
-std::string read_text(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error("cannot open " + path);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
 }
 
 std::string fmt(const char* format, double a, double b = 0.0, double c = 0.0, double d = 0.0) {
@@ -386,7 +377,7 @@ Fixture::Fixture(const FixtureSpec& s) : spec(s) {
     xml = wbm::export_urdf(*model);
   } else {
     model = std::make_unique<wbm::Model>(wbm::load_urdf(spec.urdf, spec.options));
-    xml = read_text(spec.urdf);
+    xml = wbm_test::urdf_text_with_added_frames(spec.urdf, spec.options.added_frames);  // KDL's tree has them too
   }
   check_names();
   start = spec.fixed_base ? wbm::upright_base_configuration(*model, model->home()) : model->home();

@@ -12,6 +12,7 @@
 #                    [--com] [--posture DOF,DOF,...] [--start DOF=VALUE,...]
 #                    [--default-limits] [--drop-legs] [--root-height H] [--root-rpy R,P,Y] [--fixed-base] [--short]
 #                    [--upper-body-x-range LO,HI] [--upper-body-y-range LO,HI] [--ignore-xacro-elements]
+#                    [--add-frame NAME:PARENT:X,Y,Z[:R,P,Y] ...]
 #                                         your robot: both hands position + grasp axis and the
 #                                         head's view axis (12 rows; 10 without --head), the
 #                                         centre of mass (3 rows) and joint rows if asked, with

@@ -4,7 +4,7 @@
 #   scripts/check_model.sh ROBOT.urdf --hands LEFT,RIGHT [--head FRAME] [--legs A,B] [--root LINK]
 #                          [--root-height H] [--root-rpy R,P,Y] [--default-limits] [--drop-legs] [--fixed-base]
 #                          [--upper-body-x-range LO,HI] [--upper-body-y-range LO,HI] [--ignore-xacro-elements]
-#                          [--build-dir DIR]
+#                          [--add-frame NAME:PARENT:X,Y,Z[:R,P,Y] ...] [--build-dir DIR]
 #
 #   kinematics  every Jacobian (frames, points, axes, centre of mass) against central
 #               differences of forward kinematics on random configurations; J q_dot against
@@ -39,11 +39,16 @@ build_dir="${BUILD_DIR:-build}"
 urdf=""
 env_vars=()
 info_flags=()  # the model flags `wbm model info` takes, for its notes
+added_frames=""  # --add-frame SPEC, repeatable: WBM_TEST_ADD_FRAME=SPEC;SPEC
 
 while [[ $# -gt 0 ]]; do
   model_flag "$@"
   if [[ $model_shift -gt 0 ]]; then  # WBM_TEST_HANDS=..., WBM_TEST_DROP_LEGS=1, ...
-    env_vars+=("WBM_TEST_${model_key^^}=${model_value:-1}")
+    if [[ "$model_key" == add_frame ]]; then  # repeatable: joined by ';' below
+      added_frames+="${added_frames:+;}$model_value"
+    else
+      env_vars+=("WBM_TEST_${model_key^^}=${model_value:-1}")
+    fi
     case "$model_key" in hands|head|fixed_base) ;; *) info_flags+=("${@:1:$model_shift}") ;; esac
     shift "$model_shift"
     continue
@@ -57,6 +62,7 @@ while [[ $# -gt 0 ]]; do
   shift
 done
 
+[[ -z "$added_frames" ]] || env_vars+=("WBM_TEST_ADD_FRAME=$added_frames")
 [[ -n "$urdf" ]] || { echo "check_model.sh: a URDF file is required (see --help)" >&2; exit 2; }
 urdf=$(caller_path "$urdf")
 [[ -f "$urdf" ]] || { echo "check_model.sh: no such file: $urdf" >&2; exit 2; }

@@ -36,7 +36,8 @@ grep -q "^note: the legs point backward rather than down at zero joint values" "
 
 # 2. A robot on a fixed base whose URDF has no masses (no centre of mass to check), in a copy
 # with xacro leftovers beside its links and joints (--ignore-xacro-elements; KDL's parser
-# skips them too).
+# skips them too), its hands frames added to the tools (--add-frame, twice; the references
+# read them as fixed links).
 python3 - "$work/massless.urdf" "$work/massless_xacro.urdf" <<'PY'
 import re, sys
 text = re.sub(r"<inertial>.*?</inertial>", "", open("models/dual_arm/dual_arm.urdf").read(), flags=re.S)
@@ -46,10 +47,14 @@ leftovers = ('<robot name="dual_arm">\n  <xacro:include filename="$(find dual_ar
              '  <xacro:gz link="torso"/>')
 open(sys.argv[2], "w").write(text.replace('<robot name="dual_arm">', leftovers))
 PY
-scripts/check_model.sh "$work/massless_xacro.urdf" --hands left_tool,right_tool --fixed-base --ignore-xacro-elements \
+scripts/check_model.sh "$work/massless_xacro.urdf" --hands l_tip,r_tip --fixed-base --ignore-xacro-elements \
+  --add-frame l_tip:left_tool:0.05,0,0 --add-frame r_tip:right_tool:0.05,0.01,0:0,0.5,0 \
   --build-dir "$build_dir" >"$work/out_massless.txt" 2>&1 || rc=$?
 [[ $rc -eq 0 ]] || { cat "$work/out_massless.txt"; fail "massless fixed-base robot: exit $rc"; }
 grep -Eq '^1[6-9] passed, [0-9]+ skipped, 0 failed$' "$work/out_massless.txt" || { cat "$work/out_massless.txt"; fail "massless summary"; }
+grep -q '^  passed  KdlComparison.PosesAndJacobiansMatchKdl/user ' "$work/out_massless.txt" ||
+  { cat "$work/out_massless.txt"; fail "massless: KDL comparison with the added frames"; }
+grep -q "^note: the model has no mass" "$work/out_massless.txt" || { cat "$work/out_massless.txt"; fail "massless: no note"; }
 set +e
 scripts/check_model.sh "$work/massless_xacro.urdf" --hands left_tool,right_tool --fixed-base --build-dir "$build_dir" \
   >/dev/null 2>"$work/err7.txt"

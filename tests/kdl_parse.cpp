@@ -1,6 +1,9 @@
 #include "kdl_parse.hpp"
 
+#include <fstream>
 #include <functional>
+#include <sstream>
+#include <stdexcept>
 
 #include <kdl_parser/kdl_parser.hpp>
 #include <urdf_parser/urdf_parser.h>
@@ -32,20 +35,29 @@ KdlParse kdl_tree_from_string(const std::string& xml, KDL::Tree& tree) {
   return parse([&] { return kdl_parser::treeFromString(xml, tree); });
 }
 
-KdlParse kdl_tree_from_file(const std::string& path, KDL::Tree& tree) {
-  return parse([&] { return kdl_parser::treeFromFile(path, tree); });
-}
-
-urdf::ModelInterfaceSharedPtr urdf_model_from_file(const std::string& path) {
-  urdf::ModelInterfaceSharedPtr model;
-  parse([&] { return (model = urdf::parseURDFFile(path)) != nullptr; });
-  return model;
-}
-
 urdf::ModelInterfaceSharedPtr urdf_model_from_string(const std::string& xml) {
   urdf::ModelInterfaceSharedPtr model;
   parse([&] { return (model = urdf::parseURDF(xml)) != nullptr; });
   return model;
+}
+
+std::string urdf_text_with_added_frames(const std::string& path, const std::vector<wbm::AddedFrame>& frames) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(path + ": cannot read the file");
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string xml = text.str();
+  if (frames.empty()) return xml;
+  const std::size_t end = xml.rfind("</robot>");
+  if (end == std::string::npos) throw std::runtime_error(path + ": no </robot> to add frames before");
+  std::ostringstream links;
+  links.precision(17);
+  for (const wbm::AddedFrame& f : frames)
+    links << "  <link name=\"" << f.name << "\"/>\n  <joint name=\"wbm_added_frame_" << f.name
+          << "\" type=\"fixed\">\n    <parent link=\"" << f.parent << "\"/>\n    <child link=\"" << f.name
+          << "\"/>\n    <origin xyz=\"" << f.xyz.x() << " " << f.xyz.y() << " " << f.xyz.z() << "\" rpy=\"" << f.rpy.x()
+          << " " << f.rpy.y() << " " << f.rpy.z() << "\"/>\n  </joint>\n";
+  return xml.insert(end, links.str());
 }
 
 }  // namespace wbm_test

@@ -11,8 +11,12 @@
 
 #include <string>
 
+#include <vector>
+
 #include <kdl/tree.hpp>
 #include <urdf_world/types.h>
+
+#include "wbm/urdf_import.hpp"
 
 namespace wbm_test {
 
@@ -25,11 +29,15 @@ struct KdlParse {
 };
 
 KdlParse kdl_tree_from_string(const std::string& xml, KDL::Tree& tree);
-KdlParse kdl_tree_from_file(const std::string& path, KDL::Tree& tree);
-/// urdfdom's model of the file (for the reference's mimic joints and link tree), its
-/// console messages dropped (the same as kdl_tree_from_file's, summarised there); null
-/// where urdfdom rejects the file.
-urdf::ModelInterfaceSharedPtr urdf_model_from_file(const std::string& path);
+/// urdfdom's model of the text (for the reference's mimic joints and link tree), its
+/// console messages dropped (the same as kdl_tree_from_string's, summarised there); null
+/// where urdfdom rejects it.
 urdf::ModelInterfaceSharedPtr urdf_model_from_string(const std::string& xml);
+
+/// The URDF file's text with the frames wbm adds to the model (UrdfImportOptions::added_frames,
+/// --add-frame) written in as fixed links on their parents before the closing </robot>, so that
+/// the references (KDL, urdfdom) have them too; the text unchanged without any.
+/// @throws std::runtime_error if the file cannot be read or has no </robot>.
+std::string urdf_text_with_added_frames(const std::string& path, const std::vector<wbm::AddedFrame>& frames);
 
 }  // namespace wbm_test

@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <tuple>
 
+#include "wbm/errors.hpp"
 #include "wbm/paper_model.hpp"
 
 namespace wbm_test {
@@ -60,7 +61,8 @@ std::string join(const std::vector<std::string>& names) {
 /// (frames), optional WBM_TEST_HEAD (frame), WBM_TEST_LEGS=A,B, WBM_TEST_ROOT (links),
 /// WBM_TEST_ROOT_HEIGHT (m), WBM_TEST_ROOT_RPY=R,P,Y (rad), WBM_TEST_UPPER_BODY_X_RANGE=LO,HI and
 /// WBM_TEST_UPPER_BODY_Y_RANGE=LO,HI (m), WBM_TEST_DEFAULT_LIMITS=1, WBM_TEST_IGNORE_XACRO_ELEMENTS=1,
-/// WBM_TEST_DROP_LEGS=1, WBM_TEST_FIXED_BASE=1. Its id, in test names, is "user".
+/// WBM_TEST_DROP_LEGS=1, WBM_TEST_FIXED_BASE=1, WBM_TEST_ADD_FRAME=SPEC;SPEC (--add-frame). Its id,
+/// in test names, is "user".
 ShippedModel model_from_environment() {
   ShippedModel m;
   m.id = "user";
@@ -108,6 +110,16 @@ ShippedModel model_from_environment() {
       char* end = nullptr;
       (*range)[k] = std::strtod(bounds[k].c_str(), &end);
       if (*end != '\0' || !std::isfinite((*range)[k])) environment_error(what + "'" + bounds[k] + "' is not a number of metres");
+    }
+  }
+  if (const char* frames = std::getenv("WBM_TEST_ADD_FRAME"); frames != nullptr && *frames != '\0') {
+    std::stringstream in(frames);  // several --add-frame flags, joined by ';' (check_model.sh)
+    for (std::string frame; std::getline(in, frame, ';');) {
+      try {
+        m.options.added_frames.push_back(wbm::parse_added_frame(frame));
+      } catch (const wbm::ConfigError& e) {
+        environment_error(std::string(e.what()) + " (WBM_TEST_ADD_FRAME)");
+      }
     }
   }
   m.options.default_limits = std::getenv("WBM_TEST_DEFAULT_LIMITS") != nullptr;

@@ -226,7 +226,9 @@ TEST_P(KdlComparison, PosesAndJacobiansMatchKdl) {
   const ShippedModel& entry = GetParam();
   const Model model = entry.load();
   KDL::Tree tree;
-  const wbm_test::KdlParse parsed = wbm_test::kdl_tree_from_file(entry.path, tree);
+  // The URDF with the frames the model adds (--add-frame), as fixed links: none on the shipped models.
+  const std::string xml = wbm_test::urdf_text_with_added_frames(entry.path, entry.options.added_frames);
+  const wbm_test::KdlParse parsed = wbm_test::kdl_tree_from_string(xml, tree);
   if (!parsed.ok)
     GTEST_SKIP() << "kdl_parser could not parse " << entry.path << " (no KDL reference for model " << entry.id
                  << "): " << parsed.summary();
@@ -243,7 +245,7 @@ TEST_P(KdlComparison, PosesAndJacobiansMatchKdl) {
       if (segment != tree.getSegments().end()) dropped += subtree_size(segment);
     }
   }
-  compare_with_kdl(entry.id, model, tree, read_mimics(wbm_test::urdf_model_from_file(entry.path), entry.path), false, dropped);
+  compare_with_kdl(entry.id, model, tree, read_mimics(wbm_test::urdf_model_from_string(xml), entry.path), false, dropped);
 }
 
 // Frame::parent draws the robot: every frame hangs from the frame of the link next to it in
@@ -254,7 +256,8 @@ TEST_P(KdlComparison, PosesAndJacobiansMatchKdl) {
 TEST_P(KdlComparison, FrameParentsAreTheUrdfJoints) {
   const ShippedModel& entry = GetParam();
   const Model model = entry.load();
-  const urdf::ModelInterfaceSharedPtr urdf = wbm_test::urdf_model_from_file(entry.path);
+  const urdf::ModelInterfaceSharedPtr urdf =
+      wbm_test::urdf_model_from_string(wbm_test::urdf_text_with_added_frames(entry.path, entry.options.added_frames));
   ASSERT_TRUE(urdf) << entry.path;
   const int first = model.virtual_dofs().upper_body;  // frames before it are the virtual chain's
   auto is_link = [&](int f) { return urdf->links_.count(model.frame(f).name) > 0; };
