@@ -74,6 +74,7 @@ WholeBodySolver::WholeBodySolver(const Model& model, int max_rows, const SolverP
   g_.setZero(n);
   previous_null_.setZero(n);
   previous_qdot_.setZero(n);
+  previous_change_.setZero(n);
   previous_xdot_.setZero(m);
   out_.qdot.setZero(n);
   out_.qdot_task.setZero(n);
@@ -102,6 +103,8 @@ void WholeBodySolver::reset() {
   frozen_at_limit_.setConstant(false);
   any_frozen_at_limit_ = false;
   previous_qdot_.setZero();
+  previous_change_.setZero();
+  alternations_ = 0;
   previous_xdot_rows_ = -1;
   damping_factor_ = 1.0;
   effective_damping_factor_ = 1.0;
@@ -961,6 +964,7 @@ void WholeBodySolver::adapt_damping(const Eigen::Ref<const Eigen::VectorXd>& xdo
   if (!(flags & kDamped)) {
     damping_factor_ = 1.0;  // out of the singular region: lambda from sigma_min again
     previous_xdot_rows_ = -1;  // nothing to compare the next solve with (no copies here)
+    alternations_ = 0;
     return;
   }
   if (m == previous_xdot_rows_) {
@@ -969,13 +973,32 @@ void WholeBodySolver::adapt_damping(const Eigen::Ref<const Eigen::VectorXd>& xdo
     const double a = out_.qdot.norm(), b = previous_qdot_.norm();
     const double c = xdot.norm(), d = previous_xdot_.head(m).norm();
     bool noticeable = false;  // some dof's rate changed by more than 1 % of its speed limit
-    for (int i = 0; i < n; ++i)
-      noticeable = noticeable || std::abs(out_.qdot[i] - previous_qdot_[i]) > 0.01 * model_.max_speeds()[i];
-    if (noticeable && a > 0.5 * b && out_.qdot.dot(previous_qdot_) < -0.5 * a * b &&
-        xdot.dot(previous_xdot_.head(m)) > 0.5 * c * d) {
+    // Also a period-2 oscillation riding on a drift, which the whole q_dot does not show turning
+    // back: q_dot's change turned back (more than 120 degrees) and grew, some dof's by more than
+    // 0.1 % of its speed limit, in kAlternations solves in a row (docs/solver.md).
+    double turn = 0.0, change2 = 0.0, previous2 = 0.0;
+    bool visible = false;
+    for (int i = 0; i < n; ++i) {
+      const double change = out_.qdot[i] - previous_qdot_[i];
+      noticeable = noticeable || std::abs(change) > 0.01 * model_.max_speeds()[i];
+      visible = visible || std::abs(change) > 0.001 * model_.max_speeds()[i];
+      turn += change * previous_change_[i];
+      change2 += change * change;
+      previous2 += previous_change_[i] * previous_change_[i];
+      previous_change_[i] = change;
+    }
+    const bool alternating = visible && change2 > previous2 && turn < -0.5 * std::sqrt(change2 * previous2);
+    alternations_ = alternating ? alternations_ + 1 : 0;
+    const bool same_command = xdot.dot(previous_xdot_.head(m)) > 0.5 * c * d;
+    if (same_command && ((noticeable && a > 0.5 * b && out_.qdot.dot(previous_qdot_) < -0.5 * a * b) ||
+                         alternations_ >= kAlternations)) {
       damping_factor_ = std::min(kDampingFactorStep * effective_damping_factor_, kMaxDampingFactor);
       raised_at_rate_ = c;
+      alternations_ = 0;
     }
+  } else {
+    alternations_ = 0;
+    previous_change_.setZero();
   }
   previous_qdot_ = out_.qdot;
   previous_xdot_.head(m) = xdot;

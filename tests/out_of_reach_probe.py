@@ -185,12 +185,10 @@ def largest_acceleration(trajectory, after):
 
 
 # Runs known to be still moving in the last 1.5 s (docs/solver.md), left out of --check's
-# counts and named: atlas_random4_side_balance (random variants, seed 4), where a period-2 mode
-# of the damped solve grows slowly from 12.2 s until the raised damping stops it at 13.2 s
-# (60 rad/s^2), as in 4 of the 576 runs of seeds 5-20. It appeared when the root height came to
-# reach the soles (the variant stands 7 cm higher); any solver parameter changed (null-space
-# gain, damping, jerk limit) removes it.
-KNOWN_MOVING = {"atlas_random4_side_balance"}
+# counts and named; none now. (atlas_random4_side_balance was one for a commit: a period-2 mode
+# of the damped solve growing slowly under a drift until the raised damping caught it, 60
+# rad/s^2; the solver now also raises the damping where q_dot's change turns back and grows.)
+KNOWN_MOVING = set()
 
 
 def random_variants(seeds, out):

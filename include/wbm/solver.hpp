@@ -144,6 +144,9 @@ class WholeBodySolver {
   /// the raise shrinks with the command's speed |x_dot| against that at the raise.
   static constexpr double kDampingFactorStep = 4.0;
   static constexpr double kMaxDampingFactor = 256.0;
+  /// An overshoot is also a change of q_dot that turned back and grew this many solves in a
+  /// row under the same command: a period-2 oscillation riding on a slow drift.
+  static constexpr int kAlternations = 4;
 
   /// Weighted (damped, as in solve) pseudo-inverse J# (nq x m) for analysis and tests:
   /// column k is solve()'s q_dot_task for x_dot = e_k. At sigma_min >= singular_threshold
@@ -250,6 +253,8 @@ class WholeBodySolver {
   Eigen::VectorXd previous_null_;
   Eigen::VectorXd previous_qdot_;  // the last solve's q_dot and x_dot (adapt_damping)
   Eigen::VectorXd previous_xdot_;
+  Eigen::VectorXd previous_change_;  // q_dot's change in the last solve (adapt_damping)
+  int alternations_ = 0;             // solves in a row whose change turned back and grew
   int previous_xdot_rows_ = -1;
   Eigen::VectorXd braking_time_per_rate_;  // 1 / (k v_max,i): the braking distance is v |v| times this
   double damping_factor_ = 1.0;   // times lambda^2 from sigma_min, while near a singularity
