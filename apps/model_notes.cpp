@@ -87,6 +87,15 @@ std::string speed_limit_note(const Model& model) {
   return note.str();
 }
 
+/// A note when one leg is given, or "": a biped's other leg then moves with the arms as the
+/// robot's own dofs (PNDbotics Adam Lite with one name: 28 dofs instead of 22, nothing said).
+std::string one_leg_note(const std::vector<std::string>& legs) {
+  if (legs.size() != 1) return "";
+  return "one leg given ('" + legs[0] +
+         "'): a robot with two legs names the first link of each (--legs L,R; robot.legs); the other leg's joints "
+         "are dofs the solver moves";
+}
+
 /// A note when the model has no mass, or "": a URDF without <inertial> elements (a kinematic
 /// description, as many fixed-base setups' are) loads, but a centre-of-mass task has nothing
 /// to follow and balance nothing to balance.
@@ -101,7 +110,8 @@ std::string massless_note(const Model& model) {
 std::vector<std::string> model_notes(const Model& model, bool from_urdf, const std::vector<std::string>& legs) {
   std::vector<std::string> notes;
   if (!from_urdf) return notes;
-  for (const std::string& note : {speed_limit_note(model), legs_direction_note(model, legs), massless_note(model)})
+  for (const std::string& note :
+       {speed_limit_note(model), one_leg_note(legs), legs_direction_note(model, legs), massless_note(model)})
     if (!note.empty()) notes.push_back(note);
   return notes;
 }

@@ -381,6 +381,18 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
     }
     run->task_notes = immovable_task_notes(model, stack, ever_free, considered, c.q());
     run->task_notes.insert(run->task_notes.end(), target_notes.begin(), target_notes.end());
+    // Balance or walking on a URDF robot without its feet: the default ones are ASIMO-like
+    // (ROBOTIS OP3's feet are 12 cm long; "11 cm inside the feet" meant nothing there).
+    bool supported = s.balance.enabled || s.walking.enabled;
+    for (const ScenarioEvent& ev : s.events) supported = supported || ev.balance == 1;
+    if (supported && !s.urdf.empty() && s.feet.line == 0) {
+      const FootGeometry d;
+      std::ostringstream note;
+      note << "balance and walking use the default feet (" << d.length << " m long, " << d.width << " m wide, "
+           << d.spacing << " m apart: the paper's robot's), not this robot's: give them with feet: {length, width, "
+              "left_frame, right_frame} (docs/scenarios.md)";
+      run->task_notes.push_back(note.str());
+    }
   }
   if (options.check_only) return run;
   const int n_el = stack.num_elements();

@@ -3,6 +3,7 @@
 #include <sys/stat.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -174,7 +175,15 @@ class UrdfChecker {
 
   std::vector<double> numbers(const TiXmlElement* e, const char* attr, size_t count,
                               const std::string& what) const {
-    std::istringstream in(required(e, attr, what));
+    const std::string text = required(e, attr, what);
+    // urdfdom reads a single number with the whole attribute's text: one followed by a space
+    // is no number there (a mass of 0 kg, with a message that was set aside; a limit rejects
+    // the file without a line). PNDbotics Adam Lite has <mass value="0.73234339 "/>.
+    if (count == 1 && !text.empty() && std::isspace(static_cast<unsigned char>(text.back())))
+      fail(e->Row(), what + ": <" + e->Value() + " " + attr + "> is '" + text +
+                         "': urdfdom reads no number followed by a space there (it would take it as 0 or reject the "
+                         "file); remove the space");
+    std::istringstream in(text);
     std::vector<double> values;
     std::string token;
     while (in >> token) {
@@ -423,11 +432,13 @@ Transform to_transform(const urdf::Pose& pose) {
 
 Vector3 to_vector(const urdf::Vector3& v) { return {v.x, v.y, v.z}; }
 
-/// The lowest height [m] of a link's collision and visual primitives (spheres, boxes,
-/// cylinders) in the frame where the link's pose is X_RL, or +inf without any: a foot's sole
-/// lies below its link's origin (G1's 3.5 cm below the ankle, H1's and Atlas's boxes). Meshes
-/// are left out (their files are not read), and so are primitives with a size that is not
-/// finite or beyond kMaxLength (they say nothing of where the sole is).
+/// The lowest height [m] of a link's collision primitives (spheres, boxes, cylinders), or of
+/// its visual ones where it has no collision element, in the frame where the link's pose is
+/// X_RL, or +inf without any: a foot's sole lies below its link's origin (G1's 3.5 cm below
+/// the ankle, H1's and Atlas's boxes). Visuals only without collisions: they may be markers
+/// (EngineAI PM v2 draws a 2 cm sphere around its sole point, which stood it 2 cm high).
+/// Meshes are left out (their files are not read), and so are primitives with a size that is
+/// not finite or beyond kMaxLength (they say nothing of where the sole is).
 double lowest_primitive_z(const urdf::Link& link, const Transform& X_RL) {
   double lowest = std::numeric_limits<double>::infinity();
   const auto add = [&](const urdf::Pose& origin, const urdf::GeometrySharedPtr& geometry) {
@@ -449,8 +460,9 @@ double lowest_primitive_z(const urdf::Link& link, const Transform& X_RL) {
   };
   for (const urdf::CollisionSharedPtr& collision : link.collision_array)
     if (collision) add(collision->origin, collision->geometry);
-  for (const urdf::VisualSharedPtr& visual : link.visual_array)
-    if (visual) add(visual->origin, visual->geometry);
+  if (link.collision_array.empty())
+    for (const urdf::VisualSharedPtr& visual : link.visual_array)
+      if (visual) add(visual->origin, visual->geometry);
   return lowest;
 }
 
@@ -819,6 +831,7 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
     std::ostringstream msg;
     msg << source << ": the root link's roll, pitch, yaw (root_rpy, --root-rpy) must be finite and within [-2 pi, 2 pi] "
         << "rad, got " << rpy.x() << ", " << rpy.y() << ", " << rpy.z();
+    if (rpy.allFinite()) msg << " (degrees?)";
     throw ParseError(msg.str());
   }
   const Matrix3 R_UR = rotation_from_rpy(rpy.x(), rpy.y(), rpy.z());

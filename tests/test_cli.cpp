@@ -159,6 +159,22 @@ TEST(Cli, ModelInfoNotesLegsThatPointUpOrApart) {
       << apart.out;
 }
 
+// One leg named: the other is the robot's own dofs, which a biped's user did not mean.
+TEST(Cli, ModelInfoNotesASingleLeg) {
+  const std::string g1 = wbm_test::shipped_model("g1_29dof").path;
+  const CliRun r = wbm_cli("model info '" + g1 + "' --legs left_hip_pitch_link");
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("note: one leg given ('left_hip_pitch_link'): a robot with two legs names the first link of each"),
+            std::string::npos)
+      << r.out;
+  EXPECT_EQ(wbm_cli("model info '" + g1 + "' --legs left_hip_pitch_link,right_hip_pitch_link").out.find("one leg"),
+            std::string::npos);
+  // Degrees for the root's turn: the hint.
+  const CliRun degrees = wbm_cli("model info '" + g1 + "' --root-rpy 0,0,180");
+  EXPECT_NE(degrees.status, 0);
+  EXPECT_NE(degrees.err.find("got 0, 0, 180 (degrees?)"), std::string::npos) << degrees.err;
+}
+
 // A URDF without masses (a kinematic description) loads; the note says what needs them.
 TEST(Cli, ModelInfoNotesAModelWithoutMass) {
   std::string xml = wbm_test::read_file(wbm_test::source_path("models/dual_arm/dual_arm.urdf"));

@@ -1022,8 +1022,8 @@ TEST(ReRooting, RootHeightComesFromTheLegsAlsoWhenTheyHangBelowReversedJoints) {
 }
 
 // The root height from the legs reaches down to the lowest point of their primitives
-// (collision and visual spheres, boxes, cylinders, turned by their origins and by the links'
-// poses at zero joint values), not only to the lowest link origin: a foot's sole lies below
+// (collision spheres, boxes, cylinders, or visual ones on a link without collisions, turned by
+// their origins and by the links' poses at zero joint values), not only to the lowest link origin: a foot's sole lies below
 // its ankle (G1 3.5 cm, H1 6.2 cm, Atlas 7.4 cm; the robots stood that deep in the ground).
 // Meshes are not read; a link without primitives counts by its origin as before.
 TEST(UrdfImport, TheRootHeightFromTheLegsReachesTheirSoles) {
@@ -1063,6 +1063,10 @@ TEST(UrdfImport, TheRootHeightFromTheLegsReachesTheirSoles) {
   // 0.03, length 0.2: its axis pitched by 0.3 rad, the lowest point of the rim at one end.
   EXPECT_NEAR(height(element("visual", "0 0 -0.02", "0 1.5707963267948966 0", R"(<cylinder radius="0.03" length="0.2"/>)")),
               ankle + 0.02 * c + 0.5 * 0.2 * s + 0.03 * c, 1e-9);
+  // Visuals count only without collisions: a marker sphere around the sole point does not.
+  EXPECT_NEAR(height(element("collision", "0 0 -0.01", "0 0 0", R"(<box size="0.2 0.1 0.02"/>)") +
+                     element("visual", "0 0 0", "0 0 0", R"(<sphere radius="0.1"/>)")),
+              ankle + 0.01 * c + 0.5 * (0.2 * s + 0.02 * c), 1e-12);
   // The lowest of several; a mesh (not read) and a primitive above the origin change nothing.
   EXPECT_NEAR(height(element("collision", "0 0 0.05", "0 0 0", R"(<sphere radius="0.01"/>)") +
                      element("visual", "0 0 -0.5", "0 0 0", R"(<mesh filename="foot.stl"/>)")),

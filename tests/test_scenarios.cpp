@@ -1297,6 +1297,28 @@ TEST(Scenarios, AJointTargetOutsideItsRangeIsNoted) {
   EXPECT_EQ(notes("relative_targets: {j: [0.1, -9]}"), nlohmann::json::array());
 }
 
+// Balance on a URDF robot without its feet uses the paper robot's: noted (the margin it reports
+// is for those feet); with feet given, or on the paper model, nothing.
+TEST(Scenarios, DefaultFeetOnAUrdfRobotAreNoted) {
+  const wbm_test::ShippedModel& g1 = wbm_test::shipped_model("g1_29dof");
+  const auto notes = [&](const std::string& robot, const std::string& rest) {
+    const auto run = run_scenario(parse_scenario("name: f\n" + robot + "duration: 0.01\nfrozen: [heel_x, heel_y, heel_yaw]\n"
+                                                 "tasks: [{name: a, type: com}]\n" + rest,
+                                                 "f.yaml", "."));
+    return summarize(*run)["task_notes"];
+  };
+  const std::string urdf = "robot: {urdf: '" + g1.path + "', legs: [left_hip_pitch_link, right_hip_pitch_link]}\n";
+  const nlohmann::json defaults = notes(urdf, "balance: {enabled: true}\n");
+  ASSERT_EQ(defaults.size(), 1u) << defaults;
+  EXPECT_EQ(defaults[0].get<std::string>(),
+            "balance and walking use the default feet (0.22 m long, 0.12 m wide, 0.18 m apart: the paper's robot's), "
+            "not this robot's: give them with feet: {length, width, left_frame, right_frame} (docs/scenarios.md)");
+  EXPECT_EQ(notes(urdf, "timeline: [{t: 0.005, balance: true}]\n").size(), 1u);  // switched on later
+  EXPECT_EQ(notes(urdf, "balance: {enabled: true}\nfeet: {length: 0.2, width: 0.08}\n"), nlohmann::json::array());
+  EXPECT_EQ(notes(urdf, ""), nlohmann::json::array());  // no balance
+  EXPECT_EQ(notes("", "balance: {enabled: true}\n"), nlohmann::json::array());  // the paper model's own feet
+}
+
 // robot.add_frames: a hand point at the end of H1's forearm (no URDF link marks it) is a
 // frame like any other: a position task on it reaches its target.
 TEST(Scenarios, AddedFramesCanCarryTasks) {

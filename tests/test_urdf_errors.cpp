@@ -321,6 +321,33 @@ TEST(UrdfErrors, MissingFile) {
   }
 }
 
+// A single number followed by a space is no number for urdfdom: a mass became 0 kg with its
+// message set aside (PNDbotics Adam Lite's <mass value="0.73234339 "/>), a limit rejected the
+// file without a line. Both are errors at their line now; vectors may have spaces around.
+TEST(UrdfErrors, ANumberFollowedByASpaceIsNamed) {
+  const std::string xml = wbm_test::read_file(wbm_test::source_path("models/dual_arm/dual_arm.urdf"));
+  const auto message = [&](const std::string& from, const std::string& to) {
+    std::string edited = xml;
+    const std::size_t at = edited.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    edited.replace(at, from.size(), to);
+    try {
+      wbm::parse_urdf(edited, {}, "dual_arm_edited.urdf");
+    } catch (const wbm::ParseError& e) {
+      return std::string(e.what());
+    }
+    return std::string("(loaded)");
+  };
+  EXPECT_EQ(message(R"(<mass value="20"/>)", R"(<mass value="20 "/>)"),
+            "dual_arm_edited.urdf:11: link 'base': <mass value> is '20 ': urdfdom reads no number followed by a "
+            "space there (it would take it as 0 or reject the file); remove the space");
+  EXPECT_EQ(message(R"(velocity="0.2"/>)", R"(velocity="0.2 "/>)").rfind(
+                "dual_arm_edited.urdf:40: joint 'torso_lift': <limit velocity> is '0.2 ': urdfdom reads no number", 0),
+            0u);
+  EXPECT_EQ(message(R"(<mass value="20"/>)", R"(<mass value=" 20"/>)"), "(loaded)");  // urdfdom skips a leading one
+  EXPECT_EQ(message(R"(<origin xyz="0 0 0.05"/>)", R"(<origin xyz=" 0 0 0.05 "/>)"), "(loaded)");
+}
+
 // A directory opened as a file read as an empty document: "malformed XML: Error document empty".
 TEST(UrdfErrors, ADirectoryIsNoUrdfFile) {
   const std::string dir = wbm_test::source_path("models/dual_arm");

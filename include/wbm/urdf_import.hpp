@@ -44,8 +44,9 @@ struct UrdfImportOptions {
   std::vector<std::string> legs;
   LegMode leg_mode = LegMode::kLock;  ///< kDrop needs `legs` (else ParseError).
   /// Height of the root link origin above the ground [m]. NaN: from the legs (their lowest
-  /// point at zero joint values: a leg link's origin or the lowest point of its collision and
-  /// visual spheres, boxes and cylinders, e.g. a sole below the ankle); without legs, where `root` is not given and the
+  /// point at zero joint values: a leg link's origin or the lowest point of its collision
+  /// spheres, boxes and cylinders, or visual ones without collisions, e.g. a sole below the
+  /// ankle); without legs, where `root` is not given and the
   /// URDF's root link is a massless link cut off below the root (a base_link on the ground),
   /// the root's height above it; else 1 m.
   double root_height = std::numeric_limits<double>::quiet_NaN();
