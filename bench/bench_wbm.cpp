@@ -72,9 +72,9 @@ std::vector<std::string> split(const std::string& s, char sep) {
 
 /// "; the ends of FILE's tree (links [frames welded to them]): a b [c, d and 3 more] e" (the
 /// bodies without children that three or more of the robot's own joints move: the ends of the
-/// arms, and of the legs unless locked), or why the URDF does not load; for the error of a missing --hands. Each end is
-/// named once, as its body, with the frames welded to it in brackets (the first two and how
-/// many more: Romeo's head carries eleven sensor frames). A hand's fingers are shown as the
+/// arms, and of the legs unless locked), or why the URDF does not load; for the error of a
+/// missing --hands. Each end is named once, as its body, with the frames welded to it in
+/// brackets (the first two and how many more: Romeo's head carries eleven sensor frames). A hand's fingers are shown as the
 /// body they branch from (a palm): the first body above an end with two or more children, if
 /// it is moved by three or more joints and no end below it lies more than four joints deeper
 /// (Valkyrie's fingers made about 50 ends; the torso, where the arms branch, has the arms'

@@ -381,12 +381,11 @@ Fixture::Fixture(const FixtureSpec& s) : spec(s) {
   }
   check_names();
   start = spec.fixed_base ? wbm::upright_base_configuration(*model, model->home()) : model->home();
-  for (const auto& [name, value] : spec.start_values) {
-    const wbm::Dof& dof = model->dof(model->dof_index(name));  // the name was checked in check_names
-    if (!dof.continuous && !(value >= dof.lower && value <= dof.upper))
-      throw std::runtime_error("--start " + name + "=" + fmt("%g", value) + ": outside the dof's range [" +
-                               fmt("%g", dof.lower) + ", " + fmt("%g", dof.upper) + "]");
-    start[model->dof_index(name)] = value;
+  for (const auto& [name, value] : spec.start_values) start[model->dof_index(name)] = value;  // names: check_names
+  try {
+    model->check_configuration(start);  // each value within its dof's range
+  } catch (const wbm::ModelError& e) {
+    throw std::runtime_error("--start: " + std::string(e.what()));
   }
   wbm::UrdfExportOptions whole;
   whole.virtual_dofs = true;

@@ -594,13 +594,13 @@ class TreeBuilder {
     }
     if (mode != Mode::kNormal) {
       leg_links_.insert(link_name);
+      leg_length_ = std::max(leg_length_, (X_RL.p - leg_origin_).norm());
       const double lowest = std::min(X_RL.p.z(), lowest_primitive_z(link, X_RL));
       if (lowest < lowest_leg_z_) {
         lowest_leg_z_ = lowest;
         lowest_leg_link_ = link_name;
       }
     }
-    if (mode != Mode::kNormal) leg_length_ = std::max(leg_length_, (X_RL.p - leg_origin_).norm());
     for (const JointInfo* info : neighbours_.at(link_name)) {
       if (info == from) continue;
       const urdf::Joint& joint = *urdf_.joints_.at(info->name);

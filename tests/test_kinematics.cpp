@@ -623,6 +623,26 @@ TEST(UrdfImport, ALongListOfNamesSaysHowManyItLeavesOut) {
   }
 }
 
+// Standing straight at zero joint values, the shipped robots' lowest link origin lies as far
+// above the ground as their soles below it: G1's collision spheres 3.5 cm below the ankle roll
+// links, H1's and Atlas's foot boxes 6.2 and 7.4 cm; NAO's force-sensor boxes 2.5 mm below its
+// sole links, Romeo's sole links themselves (before, every one of them had its lowest link
+// origin on the ground, the soles below it).
+TEST(UrdfImport, TheShippedRobotsStandOnTheirSoles) {
+  for (const auto& [id, above] : {std::pair{"g1_29dof", 0.035}, std::pair{"h1", 0.062}, std::pair{"atlas", 0.0741},
+                                  std::pair{"nao", 0.0025}, std::pair{"romeo_small", 0.0}}) {
+    const Model model = wbm_test::shipped_model(id).load();
+    Eigen::VectorXd q = Eigen::VectorXd::Zero(model.num_dofs());
+    q[model.virtual_dofs().ub_z] = model.dof(model.virtual_dofs().ub_z).upper;
+    Data data(model);
+    wbm::forward_kinematics(model, data, q);
+    double lowest = std::numeric_limits<double>::infinity();  // of the robot's frames, not the virtual chain's
+    for (int f = model.virtual_dofs().upper_body; f < model.num_frames(); ++f)
+      lowest = std::min(lowest, wbm::frame_position(model, data, f).z());
+    EXPECT_NEAR(lowest, above, 5e-4) << id;
+  }
+}
+
 // Frames added to an imported model (a hand point at the end of H1's forearm, where the URDF
 // has no link): where the parent frame puts them on random configurations, with a Jacobian
 // that matches central differences of their pose, drawn from their parent, and exported and
