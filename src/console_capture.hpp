@@ -22,10 +22,12 @@ class ConsoleCapture : public console_bridge::OutputHandler {
     if (level >= console_bridge::CONSOLE_BRIDGE_LOG_WARN) messages_.push_back(text);
   }
   const std::vector<std::string>& messages() const { return messages_; }
-  /// The messages joined by "; ".
-  std::string text() const {
+  /// The first `most` messages joined by "; ", and how many more there were (urdfdom
+  /// repeats a problem for every link that has it: one error message, not a page).
+  std::string text(size_t most = 4) const {
     std::string joined;
-    for (const std::string& m : messages_) joined += (joined.empty() ? "" : "; ") + m;
+    for (size_t i = 0; i < messages_.size() && i < most; ++i) joined += (joined.empty() ? "" : "; ") + messages_[i];
+    if (messages_.size() > most) joined += "; and " + std::to_string(messages_.size() - most) + " more messages";
     return joined;
   }
 

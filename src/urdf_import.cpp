@@ -25,6 +25,13 @@ namespace {
 
 std::string quoted(const std::string& s) { return "'" + s + "'"; }
 
+/// `s` with tabs, line breaks and carriage returns written as \t, \n and \r.
+std::string escaped_whitespace(const std::string& s) {
+  std::string out;
+  for (const char c : s) out += c == '\t' ? "\\t" : c == '\n' ? "\\n" : c == '\r' ? "\\r" : std::string(1, c);
+  return out;
+}
+
 /// Largest accepted |norm - 1| of a joint axis; accepted axes are normalised.
 constexpr double kAxisNormTolerance = 0.01;
 
@@ -180,20 +187,37 @@ class UrdfChecker {
     // is no number there (a mass of 0 kg, with a message that was set aside; a limit rejects
     // the file without a line). PNDbotics Adam Lite has <mass value="0.73234339 "/>.
     if (count == 1 && !text.empty() && std::isspace(static_cast<unsigned char>(text.back())))
-      fail(e->Row(), what + ": <" + e->Value() + " " + attr + "> is '" + text +
+      fail(e->Row(), what + ": <" + e->Value() + " " + attr + "> is '" + escaped_whitespace(text) +
                          "': urdfdom reads no number followed by a space there (it would take it as 0 or reject the "
                          "file); remove the space");
-    std::istringstream in(text);
+    // urdfdom splits a vector (xyz, rpy, size, rgba) at spaces only, so a tab or line break
+    // stays inside a component, where it may lead but not trail the number ("0\t0 0" is one
+    // component it cannot read). Split as it does, so that what passes here passes there.
+    std::vector<std::string> tokens;
+    if (count == 1) {
+      std::istringstream in(text);
+      for (std::string token; in >> token;) tokens.push_back(token);
+    } else {
+      for (size_t start = 0; start <= text.size();) {
+        const size_t end = std::min(text.find(' ', start), text.size());
+        if (end > start) tokens.push_back(text.substr(start, end - start));
+        start = end + 1;
+      }
+    }
     std::vector<double> values;
-    std::string token;
-    while (in >> token) {
+    for (const std::string& token : tokens) {
       // As urdfdom reads numbers (a classic-locale stream that must use the whole token), so
       // that what passes here passes there: no hexadecimal, "inf", "nan" or "1,5".
       std::istringstream number(token);
       number.imbue(std::locale::classic());
       double v = 0.0;
       number >> v;
-      if (number.fail() || !number.eof() || !std::isfinite(v))
+      const bool bad = number.fail() || !number.eof() || !std::isfinite(v);
+      if (bad && std::any_of(token.begin(), token.end(), [](char c) { return std::isspace(static_cast<unsigned char>(c)); }))
+        fail(e->Row(), what + ": <" + e->Value() + " " + attr + "> is '" + escaped_whitespace(text) +
+                           "': urdfdom separates the numbers at spaces only (a tab or line break after a number "
+                           "makes it unreadable there); separate them by spaces");
+      if (bad)
         fail(e->Row(), what + ": <" + e->Value() + " " + attr + "> has '" + token +
                            "' where a finite number was expected" +
                            (token.find("${") != std::string::npos || token.find("$(") != std::string::npos

@@ -28,6 +28,7 @@
 #include <kdl/treejnttojacsolver.hpp>
 #include <urdf_parser/urdf_parser.h>
 
+#include "console_capture.hpp"
 #include "kdl_parse.hpp"
 #include "shipped_models.hpp"
 #include "test_util.hpp"
@@ -360,6 +361,18 @@ TEST(KdlParse, UrdfdomMessagesAreCountedNotPrinted) {
   EXPECT_EQ(err.find("material"), std::string::npos) << err;
   EXPECT_NE(parsed.summary().find(" messages while kdl_parser read the file (the first: '"), std::string::npos)
       << parsed.summary();
+}
+
+// The import's error when urdfdom rejects a file quotes urdfdom's first messages, not a page:
+// urdfdom repeats a problem for every link that has it (a vector with tabs: one message per
+// link, 40 on the G1, before the import named the line itself).
+TEST(ConsoleCapture, TextKeepsTheFirstMessagesAndCountsTheRest) {
+  wbm::internal::ConsoleCapture capture;
+  for (int i = 1; i <= 7; ++i) CONSOLE_BRIDGE_logError("problem %d", i);
+  CONSOLE_BRIDGE_logDebug("not an error");
+  EXPECT_EQ(capture.messages().size(), 7u);
+  EXPECT_EQ(capture.text(), "problem 1; problem 2; problem 3; problem 4; and 3 more messages");
+  EXPECT_EQ(capture.text(7), "problem 1; problem 2; problem 3; problem 4; problem 5; problem 6; problem 7");
 }
 
 }  // namespace

@@ -159,6 +159,9 @@ const std::vector<Case>& catalogue() {
       {"bad_inertia.urdf", "bad_inertia.urdf:9: link 'l1': <inertia ixx> has 'nan' where a finite number was expected", "",
        {}},
       {"bad_geometry.urdf", "bad_geometry.urdf:7: link 'l1': <box size> needs 3 numbers, found 2", "", {}},
+      {"tab_in_vector.urdf",
+       "tab_in_vector.urdf:11: joint 'j1': <origin xyz> is '0\\t0 0.1': urdfdom separates the numbers at spaces only",
+       "", {}},
       {"mimic_unknown_joint.urdf", "mimic_unknown_joint.urdf:14: joint 'j2' mimics joint 'j_missing', which is not defined",
        "", {}},
       {"mimic_of_locked_joint.urdf",
@@ -346,6 +349,16 @@ TEST(UrdfErrors, ANumberFollowedByASpaceIsNamed) {
             0u);
   EXPECT_EQ(message(R"(<mass value="20"/>)", R"(<mass value=" 20"/>)"), "(loaded)");  // urdfdom skips a leading one
   EXPECT_EQ(message(R"(<origin xyz="0 0 0.05"/>)", R"(<origin xyz=" 0 0 0.05 "/>)"), "(loaded)");
+  // urdfdom splits vectors at spaces only: a tab or line break may lead a component (its
+  // number reader skips it) but not follow one. Before, wbm split at any white space and
+  // passed the file on to urdfdom, whose message had no line and repeated for every link.
+  EXPECT_EQ(message(R"(<origin xyz="0 0 0.05"/>)", "<origin xyz=\"0 \t0 \n0.05\"/>"), "(loaded)");
+  EXPECT_EQ(message(R"(<origin xyz="0 0 0.05"/>)", "<origin xyz=\"0\t0 0.05\"/>"),
+            "dual_arm_edited.urdf:45: link 'left_link1': <origin xyz> is '0\\t0 0.05': urdfdom separates the numbers at "
+            "spaces only (a tab or line break after a number makes it unreadable there); separate them by spaces");
+  EXPECT_EQ(message(R"(<mass value="20"/>)", "<mass value=\"20\t\"/>").rfind(
+                "dual_arm_edited.urdf:11: link 'base': <mass value> is '20\\t': urdfdom reads no number followed", 0),
+            0u);
 }
 
 // A directory opened as a file read as an empty document: "malformed XML: Error document empty".
