@@ -40,7 +40,8 @@ from out_of_reach_probe import require_program
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BAD_NUMBERS = ["nan", "inf", "-inf", "1e400", "-1", "", "abc", "1 2", "0 0 0", "1e-320", "1e308 1e308 1e308",
-               "NaN NaN NaN", "0 0", "1 2 3 4", "  ", "-0", "1,2,3", "0x10", "1e5"]
+               "NaN NaN NaN", "0 0", "1 2 3 4", "  ", "-0", "1,2,3", "0x10", "1e5",
+               "0\t0 0", "0 0\n0", "1\t", " \t1"]
 BAD_VALUES = ["nan", ".nan", ".inf", "-.inf", "-1", "0", "1e400", "1e12", "-1e12", "abc", "[]", "{}", '""', "~",
               "-0.0", "1e-300", "[1, 2]", "[nan, 0, 0]", "[1, 2, 3, 4]", "true", "0x1F", "1_000", "2.5", "-3",
               "100000", "../x", "a/b", "'a,b'"]
