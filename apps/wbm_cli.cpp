@@ -42,9 +42,9 @@ struct ModelSource {
     app.add_option("--legs", urdf.legs, "first link of each leg subtree")->delimiter(',');
     app.add_flag("--drop-legs", drop_legs, "remove the legs instead of locking them at zero");
     root_height_option = app.add_option("--root-height", urdf.root_height,
-                                        "root link height above the ground [m] (default: from the legs; without legs "
-                                        "above a massless root link cut off below it, e.g. a base_link on the floor; "
-                                        "else 1 m)");
+                                        "root link height above the ground [m], > 0 with legs, >= 0 without (default: "
+                                        "from the legs; without legs above a massless root link cut off at or below "
+                                        "it, e.g. a base_link or world on the floor; else 1 m)");
     app.add_option("--root-rpy", root_rpy,
                    "orientation of the root link in wbm's frame (x forward, z up): roll,pitch,yaw [rad], "
                    "e.g. 0,0,3.14159 for a root link whose x axis points backward")

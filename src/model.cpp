@@ -357,7 +357,11 @@ std::array<Dof, 9> default_virtual_dofs(double height) {
   d[2] = {"heel_yaw", JointType::kRevolute, DofRole::kHeelYaw, true, -pi, pi, 0.8, 2.0 * pi};
   d[3] = {"upper_body_x", JointType::kPrismatic, DofRole::kUpperBodyX, false, -0.02, 0.14, 0.3, 0.0};
   d[4] = {"upper_body_y", JointType::kPrismatic, DofRole::kUpperBodyY, false, -0.08, 0.08, 0.3, 0.0};
-  d[5] = {"upper_body_z", JointType::kPrismatic, DofRole::kUpperBodyZ, false, 0.8 * height, height,
+  // A root at ground level (height 0: a fixed-base robot whose base link stands on the
+  // world's origin) crouches by the 0.2 m a 1 m root would (the default height before such
+  // robots kept theirs): a range, not a point, though a fixed base freezes the dof.
+  const double crouch = height > 0.0 ? 0.2 * height : 0.2;
+  d[5] = {"upper_body_z", JointType::kPrismatic, DofRole::kUpperBodyZ, false, height - crouch, height,
           0.3, 0.0};
   d[6] = {"upper_body_roll", JointType::kRevolute, DofRole::kUpperBodyRoll, false, -0.2, 0.2, 1.0, 0.0};
   d[7] = {"upper_body_pitch", JointType::kRevolute, DofRole::kUpperBodyPitch, false, -0.2, 0.5, 1.0, 0.0};
@@ -382,8 +386,8 @@ Eigen::VectorXd upright_base_configuration(const Model& model, const Eigen::Vect
 
 int add_virtual_base(ModelBuilder& builder, double height, const std::string& upper_body_name,
                      const Inertial& heel, const Inertial& upper_body, const Matrix3& R_UR) {
-  if (!std::isfinite(height) || height <= 0.0)
-    throw ModelError("upper-body height above the heel must be > 0 m, got " + std::to_string(height));
+  if (!std::isfinite(height) || height < 0.0)
+    throw ModelError("upper-body height above the heel must be >= 0 m, got " + std::to_string(height));
   return add_virtual_base(builder, default_virtual_dofs(height), upper_body_name, heel, upper_body, R_UR);
 }
 

@@ -862,12 +862,15 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
   TreeBuilder tree(*urdf, checker, options);
   tree.build(root, R_UR);
   double height = options.root_height;
-  if (!std::isnan(height) && !(std::isfinite(height) && height > 0.0)) {
+  // 0 is the ground: a robot without legs whose base link stands on the world's origin.
+  const bool has_legs = std::isfinite(tree.lowest_leg_z_);
+  if (!std::isnan(height) && !(std::isfinite(height) && (height > 0.0 || (height == 0.0 && !has_legs)))) {
     std::ostringstream msg;
-    msg << source << ": the root height (root_height, --root-height) must be finite and > 0 m, got " << height;
+    msg << source << ": the root height (root_height, --root-height) must be finite and "
+        << (has_legs ? "> 0 m for a robot with legs" : ">= 0 m") << ", got " << height;
     throw ParseError(msg.str());
   }
-  if (std::isnan(height) && std::isfinite(tree.lowest_leg_z_)) {
+  if (std::isnan(height) && has_legs) {
     // Measured from the legs: they must point down from the root, their lowest link (at
     // zero joint values) at least a tenth of the legs' length below the root link's origin.
     // A root link turned upside down or on its side (root_rpy wrong or missing) leaves the
@@ -896,16 +899,17 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
     }
     height = depth;
   }
-  // No legs and no height given: a massless root link cut off below the root (a fixed-base
-  // robot's base_link or world on the ground, as Pepper's 0.33 m below its Tibia) is put on
-  // the ground, where the file and ROS tools have it; otherwise (a world link at the root,
-  // or above it) 1 m.
+  // No legs and no height given: a massless root link cut off at or below the root (a
+  // fixed-base robot's base_link or world on the ground, as Pepper's 0.33 m below its Tibia,
+  // or a dual-arm robot's world link at its base's origin: height 0) is put on the ground,
+  // where the file and ROS tools have it, so that the URDF's world frame is wbm's;
+  // otherwise (a world link above the root, or none) 1 m.
   // (A floating joint from the world link cuts the tree there: the link is not visited.)
   const auto cut = tree.z_.find(checker.root());
-  if (std::isnan(height) && options.root.empty() && root != checker.root() && cut != tree.z_.end() && cut->second < -1e-6)
-    height = -cut->second;
+  if (std::isnan(height) && options.root.empty() && root != checker.root() && cut != tree.z_.end() && cut->second < 1e-6)
+    height = std::max(0.0, -cut->second);  // within a micrometre of the root: 0
   if (std::isnan(height)) height = 1.0;
-  if (!(height > 0.0))  // legs of no length level with the root (longer ones are checked above)
+  if (has_legs && !(height > 0.0))  // legs of no length level with the root (longer ones are checked above)
     throw ParseError(source + ": the root height above the ground must be > 0 m (the legs' lowest link is not below the "
                               "root: give the root height explicitly, or, if the root link's z axis is not up, its "
                               "orientation with root_rpy, --root-rpy)");

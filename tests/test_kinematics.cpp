@@ -946,8 +946,11 @@ TEST(UrdfImport, RootRpyTurnsTheRootAsAWeldedTurnedRootLinkWould) {
 // gets a hint when its legs are not below it.
 // Without legs or a given height, a massless root link cut off below the root (a base_link
 // on the floor, as Pepper's 0.33 m below its Tibia) is put on the ground: the root stands at
-// its height above it. A world link at the root (models/dual_arm's) or above it leaves the
-// default 1 m, as does a root given by name; legs and a given height decide before.
+// its height above it. A world link at the root (models/dual_arm's) puts the root on the
+// ground (height 0: the URDF's world frame is wbm's; 1 m before, which drew the pedestal
+// floating and put every world-frame target 1 m off the ROS tools' numbers); a world link
+// above the root leaves the default 1 m, as does a root given by name; legs and a given
+// height decide before.
 TEST(UrdfImport, ACutOffRootLinkBelowTheRootIsOnTheGround) {
   const std::string xml = wbm_test::read_file(wbm_test::source_path("models/dual_arm/dual_arm.urdf"));
   const std::string at_root = R"(<child link="base"/>
@@ -970,7 +973,14 @@ TEST(UrdfImport, ACutOffRootLinkBelowTheRootIsOnTheGround) {
   EXPECT_NEAR(raised_root, 0.75, 1e-12);
   EXPECT_NEAR(raised_world, 0.0, 1e-12);  // the world link on the ground
   EXPECT_NEAR(height(with_base_at("0.2 0 0.75"), plain).first, 0.75, 1e-12);  // only the height counts
-  EXPECT_NEAR(height(xml, plain).first, 1.0, 1e-12);                          // at the root: 1 m
+  const auto [ground_root, ground_world] = height(xml, plain);  // at the root: on the ground
+  EXPECT_EQ(ground_root, 0.0);
+  EXPECT_EQ(ground_world, 0.0);
+  EXPECT_EQ(height(with_base_at("0 0 -1e-7"), plain).first, 0.0);  // within a micrometre: the same
+  const Model on_ground = wbm::parse_urdf(xml, plain, "dual_arm.urdf");
+  const wbm::Dof& z = on_ground.dof(on_ground.virtual_dofs().ub_z);
+  EXPECT_EQ(z.lower, -0.2);  // a range still, the 0.2 m a 1 m root would crouch
+  EXPECT_EQ(z.upper, 0.0);
   EXPECT_NEAR(height(with_base_at("0 0 -0.3"), plain).first, 1.0, 1e-12);     // above the root: 1 m
   wbm::UrdfImportOptions given = plain;
   given.root_height = 0.9;

@@ -372,20 +372,27 @@ TEST(UrdfErrors, ADirectoryIsNoUrdfFile) {
   }
 }
 
+// 0 is the ground, where a robot without legs may stand (a fixed base on the world's
+// origin); a robot with legs stands above it.
 TEST(UrdfErrors, RootHeightGivenMustBeFiniteAndPositive) {
-  for (const double height : {-1.0, 0.0, std::numeric_limits<double>::infinity()}) {
-    wbm::UrdfImportOptions options;
-    options.root_height = height;
-    const std::string valid = wbm_test::source_path("models/third_party/nao/nao.urdf");
-    try {
-      wbm::load_urdf(valid, options);
-      ADD_FAILURE() << "root height " << height << " accepted";
-    } catch (const wbm::ParseError& e) {
-      EXPECT_NE(std::string(e.what()).find(": the root height (root_height, --root-height) must be finite and > 0 m, got"),
-                std::string::npos)
-          << e.what();
+  const wbm_test::ShippedModel& nao = wbm_test::shipped_model("nao");
+  ASSERT_FALSE(nao.options.legs.empty());
+  for (const bool legs : {true, false})
+    for (const double height : {-1.0, 0.0, std::numeric_limits<double>::infinity()}) {
+      wbm::UrdfImportOptions options;
+      if (legs) options.legs = nao.options.legs;
+      options.root_height = height;
+      try {
+        const wbm::Model model = wbm::load_urdf(nao.path, options);
+        EXPECT_TRUE(!legs && height == 0.0) << "root height " << height << " accepted";
+        EXPECT_EQ(model.dof(model.virtual_dofs().ub_z).upper, 0.0);
+      } catch (const wbm::ParseError& e) {
+        EXPECT_FALSE(!legs && height == 0.0) << e.what();
+        const std::string expected = std::string(": the root height (root_height, --root-height) must be finite and ") +
+                                     (legs ? "> 0 m for a robot with legs, got" : ">= 0 m, got");
+        EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+      }
     }
-  }
 }
 
 TEST(UrdfErrors, UpperBodyRangesMustBeFiniteWithLowerBelowUpper) {

@@ -199,8 +199,9 @@ class ModelBuilder {
 };
 
 /// Default ranges and speed limits of the virtual heel and upper-body dofs, for a robot
-/// whose upper-body origin stands `height` metres above the heel in the home pose.
-/// Documented in docs/model.md.
+/// whose upper-body origin stands `height` metres above the heel in the home pose
+/// (0: on the ground, a fixed-base robot's base link). Documented in docs/model.md.
+/// @pre height >= 0 and finite.
 std::array<Dof, 9> default_virtual_dofs(double height);
 
 /// Appends the nine virtual bodies (heel x, y, yaw; upper body x, y, z, roll, pitch, yaw)

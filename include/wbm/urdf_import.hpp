@@ -47,8 +47,9 @@ struct UrdfImportOptions {
   /// point at zero joint values: a leg link's origin or the lowest point of its collision
   /// spheres, boxes and cylinders, or visual ones without collisions, e.g. a sole below the
   /// ankle); without legs, where `root` is not given and the
-  /// URDF's root link is a massless link cut off below the root (a base_link on the ground),
-  /// the root's height above it; else 1 m.
+  /// URDF's root link is a massless link cut off at or below the root (a base_link or world
+  /// on the ground), the root's height above it (0 for a world link at the root's origin);
+  /// else 1 m. Given: > 0 with legs, >= 0 without (else ParseError).
   double root_height = std::numeric_limits<double>::quiet_NaN();
   /// Orientation of the root link in wbm's upper-body frame (x forward, y left, z up, REP
   /// 103), as URDF roll, pitch, yaw [rad]: zero for a root link that follows REP 103;
