@@ -39,6 +39,11 @@ class Reader {
     if (v <= 0.0) fail(node, field, "expected a number > 0");
     return v;
   }
+  double non_negative(const YAML::Node& node, const std::string& field) const {
+    const double v = number(node, field);
+    if (v < 0.0) fail(node, field, "expected a number >= 0");
+    return v;
+  }
   std::string text(const YAML::Node& node, const std::string& field) const {
     if (!node.IsScalar()) fail(node, field, "expected a string");
     return node.Scalar();
@@ -165,8 +170,8 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
   if (root["description"]) s.description = r.text(root["description"], "description");
   if (const YAML::Node robot = root["robot"]) {
     r.only(robot, "robot", {"builtin", "urdf", "root", "legs", "drop_legs", "root_height", "root_rpy", "default_limits",
-                            "upper_body_x_range", "upper_body_y_range", "ignore_xacro_elements", "fixed_base",
-                            "add_frames"});
+                            "upper_body_x_range", "upper_body_y_range", "upper_body_pivot", "ignore_xacro_elements",
+                            "fixed_base", "add_frames"});
     s.robot_line = r.line(robot);
     if (robot["builtin"] && r.text(robot["builtin"], "robot.builtin") != "paper")
       r.fail(robot["builtin"], "robot.builtin", "expected 'paper' (the only built-in model)");
@@ -176,7 +181,8 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
       if (!s.urdf.empty() && s.urdf[0] != '/') s.urdf = base_dir + "/" + s.urdf;
     } else {  // the import options would be ignored without a word
       for (const char* option : {"root", "legs", "drop_legs", "root_height", "root_rpy", "default_limits",
-                                 "upper_body_x_range", "upper_body_y_range", "ignore_xacro_elements", "add_frames"})
+                                 "upper_body_x_range", "upper_body_y_range", "upper_body_pivot", "ignore_xacro_elements",
+                                 "add_frames"})
         if (robot[option])
           r.fail(robot[option], std::string("robot.") + option,
                  "an option of the URDF import; the built-in paper model takes none (add robot.urdf)");
@@ -184,7 +190,10 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
     if (robot["root"]) s.urdf_options.root = r.text(robot["root"], "robot.root");
     if (robot["legs"]) s.urdf_options.legs = r.strings(robot["legs"], "robot.legs");
     if (robot["drop_legs"] && r.boolean(robot["drop_legs"], "robot.drop_legs")) s.urdf_options.leg_mode = LegMode::kDrop;
-    if (robot["root_height"]) s.urdf_options.root_height = r.positive(robot["root_height"], "robot.root_height");
+    // >= 0 here (0: a robot without legs on the ground); the import refuses 0 with legs.
+    if (robot["root_height"]) s.urdf_options.root_height = r.non_negative(robot["root_height"], "robot.root_height");
+    if (robot["upper_body_pivot"])
+      s.urdf_options.upper_body_pivot = r.non_negative(robot["upper_body_pivot"], "robot.upper_body_pivot");
     if (robot["root_rpy"]) {
       // The shape and range here, at the option's line (load_urdf checks the range too).
       const Eigen::VectorXd rpy = r.vector(robot["root_rpy"], "robot.root_rpy");

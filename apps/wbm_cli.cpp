@@ -33,6 +33,7 @@ struct ModelSource {
   wbm::UrdfImportOptions urdf;
   bool drop_legs = false;
   CLI::Option* root_height_option = nullptr;
+  CLI::Option* pivot_option = nullptr;
   std::vector<double> root_rpy, upper_body_x_range, upper_body_y_range;
   std::vector<std::string> added_frames;
 
@@ -45,6 +46,10 @@ struct ModelSource {
                                         "root link height above the ground [m], > 0 with legs, >= 0 without (default: "
                                         "from the legs; without legs above a massless root link cut off at or below "
                                         "it, e.g. a base_link or world on the floor; else 1 m)");
+    pivot_option = app.add_option("--upper-body-pivot", urdf.upper_body_pivot,
+                                  "height [m] of the upper body's pivot (where the virtual dofs end) above the root "
+                                  "link's origin, >= 0 (default 0, or the hips' height where the root link's origin "
+                                  "lies at the feet)");
     app.add_option("--root-rpy", root_rpy,
                    "orientation of the root link in wbm's frame (x forward, z up): roll,pitch,yaw [rad], "
                    "e.g. 0,0,3.14159 for a root link whose x axis points backward")
@@ -76,7 +81,9 @@ struct ModelSource {
     if (file.empty()) return wbm::make_paper_model();
     // NaN is the library's "from the legs"; typed on the command line it is a mistake.
     if (root_height_option->count() > 0 && std::isnan(urdf.root_height))
-      throw wbm::ConfigError("--root-height: expected a finite height > 0 m, got nan");
+      throw wbm::ConfigError("--root-height: expected a finite height >= 0 m, got nan");
+    if (pivot_option->count() > 0 && std::isnan(urdf.upper_body_pivot))
+      throw wbm::ConfigError("--upper-body-pivot: expected a finite height >= 0 m, got nan");
     if (!root_rpy.empty()) urdf.root_rpy = Eigen::Vector3d(root_rpy[0], root_rpy[1], root_rpy[2]);
     if (!upper_body_x_range.empty()) urdf.upper_body_x_range = {upper_body_x_range[0], upper_body_x_range[1]};
     if (!upper_body_y_range.empty()) urdf.upper_body_y_range = {upper_body_y_range[0], upper_body_y_range[1]};
@@ -102,13 +109,13 @@ std::vector<std::string> model_notes(const ModelSource& source, const wbm::Model
   return wbm::model_notes(model, !source.file.empty(), source.urdf.legs);
 }
 
-/// The link the virtual upper-body dofs carry (the URDF's root, or --root) and its height
-/// above the ground standing straight (upper_body_z's upper limit), or "" and NaN.
+/// The link the virtual upper-body dofs carry (the URDF's root, or --root) and its origin's
+/// height above the ground standing straight (upper_body_z's upper limit less the pivot's
+/// height above it), or "" and NaN.
 std::pair<std::string, double> root_link(const wbm::Model& model) {
   const wbm::VirtualDofs& v = model.virtual_dofs();
-  for (int b = 0; b < model.num_bodies() && v.ub_yaw >= 0 && v.ub_z >= 0; ++b)
-    if (model.body(b).dof == v.ub_yaw) return {model.body(b).name, model.dof(v.ub_z).upper};
-  return {"", std::nan("")};
+  if (v.upper_body < 0 || v.ub_z < 0) return {"", std::nan("")};
+  return {model.body(v.upper_body).name, model.dof(v.ub_z).upper - wbm::upper_body_pivot_above_root(model)};
 }
 
 int model_info(ModelSource& source, bool as_json) {
@@ -120,6 +127,7 @@ int model_info(ModelSource& source, bool as_json) {
     out["total_mass"] = model.total_mass();
     out["root_link"] = root.empty() ? json(nullptr) : json(root);
     out["root_height"] = number(root_height);
+    out["upper_body_pivot"] = wbm::upper_body_pivot_above_root(model);
     json dofs = json::array();
     for (int i = 0; i < model.num_dofs(); ++i) {
       const wbm::Dof& d = model.dof(i);
@@ -141,7 +149,12 @@ int model_info(ModelSource& source, bool as_json) {
   std::cout << "model " << model.name() << ": " << model.num_dofs() << " dofs, " << model.num_bodies() << " bodies, "
             << model.num_frames() << " frames, total mass " << std::fixed << std::setprecision(3) << model.total_mass()
             << " kg\n";
-  if (!root.empty())
+  if (const double pivot = wbm::upper_body_pivot_above_root(model); !root.empty() && pivot > 0.0)
+    std::cout << "root link '" << root << "', its origin " << root_height
+              << " m above the ground standing straight; the upper body pivots " << pivot
+              << " m above it (upper_body_z's upper limit " << root_height + pivot
+              << " m; the root link's origin lies at the feet; how it is found: docs/model.md)\n";
+  else if (!root.empty())
     std::cout << "root link '" << root << "', " << root_height
               << " m above the ground standing straight (upper_body_z's upper limit; how it is found: "
                  "docs/model.md)\n";

@@ -392,7 +392,10 @@ int add_virtual_base(ModelBuilder& builder, double height, const std::string& up
 }
 
 int add_virtual_base(ModelBuilder& builder, const std::array<Dof, 9>& dofs, const std::string& upper_body_name,
-                     const Inertial& heel, const Inertial& upper_body, const Matrix3& R_UR) {
+                     const Inertial& heel, const Inertial& upper_body, const Matrix3& R_UR, double pivot_above_root) {
+  if (!std::isfinite(pivot_above_root) || pivot_above_root < 0.0)
+    throw ModelError("the upper body's pivot above the root link must be finite and >= 0 m, got " +
+                     std::to_string(pivot_above_root));
   const std::array<const char*, 9> body_names = {"heel_x", "heel_y", "heel", "upper_body_x",
                                                  "upper_body_y", "upper_body_z", "upper_body_roll",
                                                  "upper_body_pitch", ""};
@@ -411,6 +414,9 @@ int add_virtual_base(ModelBuilder& builder, const std::array<Dof, 9>& dofs, cons
     body.axis = axes[k];
     if (k == 8) {  // the root link, turned by R_UR; its yaw axis stays the vertical
       body.X_PJ.R = R_UR;
+      // Hung below the pivot along the pitch body's z axis: the yaw axis through the root
+      // link's origin is the vertical through the pivot too, so the offset commutes with it.
+      body.X_PJ.p = Vector3(0.0, 0.0, -pivot_above_root);
       body.axis = R_UR.transpose() * axes[k];
     }
     body.dof = builder.add_dof(dofs[k]);
@@ -423,6 +429,11 @@ int add_virtual_base(ModelBuilder& builder, const std::array<Dof, 9>& dofs, cons
   v.upper_body = parent;
   builder.set_virtual_dofs(v);
   return parent;
+}
+
+double upper_body_pivot_above_root(const Model& model) {
+  const int ub = model.virtual_dofs().upper_body;
+  return ub >= 0 ? -model.body(ub).X_PJ.p.z() : 0.0;
 }
 
 }  // namespace wbm

@@ -79,13 +79,20 @@ std::string export_urdf(const Model& model, const UrdfExportOptions& options) {
     out << "Every dof is a joint, the virtual ones included; link '" << root_link << "' is the world frame. -->\n";
   else {
     // The import options that give this model back: the root, its height above the ground
-    // (the top of upper_body_z's range: the legs' length the import measured, or the height
-    // it was given; without it the import would assume 1 m) and root_rpy where turned.
+    // (the top of upper_body_z's range less the pivot's height above the root: the legs'
+    // length the import measured, or the height it was given; without it the import would
+    // assume 1 m), the pivot where the root link's origin lies at the feet, and root_rpy where
+    // turned.
     std::string import_options = "root '" + root_link + "'", flags = "--root " + root_link;
+    const double pivot = upper_body_pivot_above_root(model);
     if (v.ub_z >= 0) {
-      const std::string height = shortest(model.dof(v.ub_z).upper);
+      const std::string height = shortest(model.dof(v.ub_z).upper - pivot);
       import_options += ", root_height " + height;
       flags += " --root-height " + height;
+    }
+    if (pivot > 0.0) {  // the root link's origin at the feet: the pivot the import chose or was given
+      import_options += ", upper_body_pivot " + shortest(pivot);
+      flags += " --upper-body-pivot " + shortest(pivot);
     }
     // Upper-body shift ranges other than the import's defaults.
     const UrdfImportOptions defaults;

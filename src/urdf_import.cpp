@@ -870,9 +870,33 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
         << (has_legs ? "> 0 m for a robot with legs" : ">= 0 m") << ", got " << height;
     throw ParseError(msg.str());
   }
+  // The upper body's pivot above the root link's origin: given, or the hips' height where the
+  // root link's origin lies at the feet, or 0.
+  double pivot = options.upper_body_pivot;
+  if (!std::isnan(pivot) && !(std::isfinite(pivot) && pivot >= 0.0)) {
+    std::ostringstream msg;
+    msg << source << ": the upper body's pivot above the root link (upper_body_pivot, --upper-body-pivot) must be "
+        << "finite and >= 0 m, got " << pivot;
+    throw ParseError(msg.str());
+  }
+  if (std::isnan(pivot)) {
+    pivot = 0.0;
+    // A root link whose origin lies at the feet (Surena V's and Berkeley Humanoid Lite's CAD
+    // exports): the legs reach less than a tenth of their length below it, yet point down
+    // from their first links by at least half of it. The virtual dofs then end at the hips'
+    // height, so that the upper body crouches, leans and turns about its hips, not its soles.
+    // Roots turned without root_rpy are not taken for it: their legs run sideways or up.
+    if (has_legs && -tree.lowest_leg_z_ < 0.1 * tree.leg_length_) {
+      double hips = -std::numeric_limits<double>::infinity();
+      for (const std::string& leg : options.legs)
+        if (const auto z = tree.z_.find(leg); z != tree.z_.end()) hips = std::max(hips, z->second);
+      if (hips > 0.0 && hips - tree.lowest_leg_z_ >= 0.5 * tree.leg_length_) pivot = hips;
+    }
+  }
   if (std::isnan(height) && has_legs) {
-    // Measured from the legs: they must point down from the root, their lowest link (at
-    // zero joint values) at least a tenth of the legs' length below the root link's origin.
+    // Measured from the legs: they must point down from the pivot (the root link's origin
+    // unless it lies at the feet), their lowest link (at zero joint values) at least a tenth
+    // of the legs' length below it.
     // A root link turned upside down or on its side (root_rpy wrong or missing) leaves the
     // legs level with the root or above it; such a "height" of millimetres (Poppy's root
     // turned by roll 3.14159: 1.2e-8 m; by roll pi/2: 5 mm of its 0.39 m legs) was accepted
@@ -880,7 +904,7 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
     // H1 variants: 0.57 m down with 2.0 m long legs), and a root turned by pitch pi/2 (legs
     // forward, 0.07 of 0.39 m down on Poppy) is not told from such a robot (`wbm model info`
     // notes legs that point more sideways than down: apps/model_notes.cpp).
-    const double depth = -tree.lowest_leg_z_;
+    const double depth = pivot - tree.lowest_leg_z_;
     if (depth < 0.1 * tree.leg_length_) {
       std::ostringstream msg;
       msg << "leg link " << quoted(tree.lowest_leg_link_) << ", the legs' lowest at zero joint values, is ";
@@ -888,16 +912,18 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
         msg << depth << " m below";
       else
         msg << "not below";
-      msg << " the root link's origin, less than a tenth of the legs' length (" << tree.leg_length_
+      msg << (pivot > 0.0 ? " the upper body's pivot" : " the root link's origin")
+          << ", less than a tenth of the legs' length (" << tree.leg_length_
           << " m from a leg's first link to its farthest): the legs do not point down. If the root link's z axis is "
              "not up, give its orientation (root_rpy, --root-rpy); if its origin lies at the feet (as in some CAD "
              "exports), choose a link at the hips or above as the root (root, --root)"
           << tree.higher_root_links(0.1 * tree.leg_length_)
+          << " or give the upper body's pivot above it (upper_body_pivot, --upper-body-pivot)"
           << "; if these are not the legs, name the first link of each (legs, --legs); or give the root height "
              "(root_height, --root-height)";
       checker.fail(checker.link_line(tree.lowest_leg_link_), msg.str());
     }
-    height = depth;
+    height = -tree.lowest_leg_z_;  // the root link origin's: below the ground where it lies under the soles
   }
   // No legs and no height given: a massless root link cut off at or below the root (a
   // fixed-base robot's base_link or world on the ground, as Pepper's 0.33 m below its Tibia,
@@ -909,17 +935,17 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
   if (std::isnan(height) && options.root.empty() && root != checker.root() && cut != tree.z_.end() && cut->second < 1e-6)
     height = std::max(0.0, -cut->second);  // within a micrometre of the root: 0
   if (std::isnan(height)) height = 1.0;
-  if (has_legs && !(height > 0.0))  // legs of no length level with the root (longer ones are checked above)
+  if (has_legs && !(height + pivot > 0.0))  // legs of no length level with the pivot (longer ones: above)
     throw ParseError(source + ": the root height above the ground must be > 0 m (the legs' lowest link is not below the "
                               "root: give the root height explicitly, or, if the root link's z axis is not up, its "
                               "orientation with root_rpy, --root-rpy)");
 
-  check_virtual_names(checker, tree, height);
-  std::array<Dof, 9> virtual_dofs = default_virtual_dofs(height);
+  check_virtual_names(checker, tree, height + pivot);
+  std::array<Dof, 9> virtual_dofs = default_virtual_dofs(height + pivot);
   set_upper_body_range(virtual_dofs[3], options.upper_body_x_range, "upper_body_x_range", source);
   set_upper_body_range(virtual_dofs[4], options.upper_body_y_range, "upper_body_y_range", source);
   ModelBuilder builder(urdf->getName());
-  const int ub = add_virtual_base(builder, virtual_dofs, root, Inertial{}, tree.specs_[0].body.inertial, R_UR);
+  const int ub = add_virtual_base(builder, virtual_dofs, root, Inertial{}, tree.specs_[0].body.inertial, R_UR, pivot);
   std::map<std::string, int> frame_index{{root, builder.num_frames() - 1}};  // the root body's, added last
   // Number the dofs in body order; mimic joints share their master's dof.
   std::map<std::string, int> dof_of_joint;

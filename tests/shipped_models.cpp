@@ -249,6 +249,10 @@ std::vector<ShippedModel> import_variants() {
   g1.options.root_rpy = wbm::Vector3(0.3, -0.2, 2.5);
   variants.push_back(g1);
   g1 = shipped_model("g1_29dof");
+  g1.id = "g1_29dof_pivot";  // upper_body_pivot: the root link hung below the virtual dofs' end
+  g1.options.upper_body_pivot = 0.25;
+  variants.push_back(g1);
+  g1 = shipped_model("g1_29dof");
   g1.id = "g1_29dof_legs_dropped";
   g1.options.leg_mode = wbm::LegMode::kDrop;
   variants.push_back(g1);

@@ -460,7 +460,7 @@ TEST(Cli, NonFiniteConfigurationFails) {
   expect_cli_error("model fk --q 1x,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0 --json", "--q: '1x' is not a number");
   expect_cli_error("model fk --q 1,,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0 --json", "--q: '' is not a number");
   expect_cli_error("model info '" + wbm_test::shipped_model("g1_29dof").path + "' --root-height nan",
-                   "--root-height: expected a finite height > 0 m, got nan");
+                   "--root-height: expected a finite height >= 0 m, got nan");
 }
 
 // --upper-body-x-range / -y-range set the upper body's shift ranges (for balance over long

@@ -286,7 +286,9 @@ TEST_P(Kinematics, UprightBasePutsTheRootAtItsHeightWithTheWorldAxes) {
   const Model model = entry.load();
   const wbm::VirtualDofs& v = model.virtual_dofs();
   ASSERT_GE(v.ub_z, 0) << entry.id;
-  const double height = model.dof(v.ub_z).upper;
+  // The root link's origin, below the upper body's pivot where it lies at the feet.
+  const double pivot = wbm::upper_body_pivot_above_root(model);
+  const double height = model.dof(v.ub_z).upper - pivot;
   std::mt19937_64 rng(seed_for(entry.id) + 5);
   Data data(model);
   for (int c = 0; c < 50; ++c) {
@@ -998,6 +1000,116 @@ TEST(UrdfImport, ACutOffRootLinkBelowTheRootIsOnTheGround) {
   EXPECT_NEAR(free_standing.dof(free_standing.virtual_dofs().ub_z).upper, 1.0, 1e-12);
 }
 
+/// G1 with the pelvis's origin moved `dz` down (its children's joints and its inertia raised
+/// by as much): the same robot, its root link's origin at the feet as in some CAD exports.
+std::string g1_with_root_lowered(double dz) {
+  std::string xml = wbm_test::read_file(wbm_test::shipped_model("g1_29dof").path);
+  const auto raise = [&](std::size_t from, std::size_t to) {  // the first <origin xyz> in [from, to)
+    const std::size_t at = xml.find("<origin xyz=\"", from);
+    EXPECT_LT(at, to);
+    const std::size_t start = at + 13, end = xml.find('"', start);
+    std::istringstream in(xml.substr(start, end - start));
+    double x, y, z;
+    in >> x >> y >> z;
+    std::ostringstream out;
+    out.precision(17);
+    out << x << " " << y << " " << z + dz;
+    xml.replace(start, end - start, out.str());
+  };
+  const std::size_t pelvis = xml.find("<link name=\"pelvis\">");
+  raise(pelvis, xml.find("</link>", pelvis));  // its inertial's origin
+  int joints = 0;
+  for (std::size_t at = xml.find("<joint "); at != std::string::npos; at = xml.find("<joint ", at + 1)) {
+    const std::size_t end = xml.find("</joint>", at);
+    if (xml.substr(at, end - at).find("<parent link=\"pelvis\"/>") == std::string::npos) continue;
+    ++joints;
+    if (xml.substr(at, end - at).find("<origin") == std::string::npos)
+      xml.insert(xml.find("</joint>", at), "<origin xyz=\"0 0 0\"/>");
+    raise(at, xml.find("</joint>", at));
+  }
+  EXPECT_EQ(joints, 5);  // the hips, the waist, the contour and the IMU
+  return xml;
+}
+
+// A root link whose origin lies at the feet (Surena V's CAD export; Berkeley Humanoid Lite's,
+// which has a link welded higher up): the legs reach less than a tenth of their length
+// below it, which was an error. The virtual dofs now end at the hips (upper_body_pivot): the
+// robot stands where it did with its origin up in the pelvis, crouches by 20 % of the hips'
+// height and leans about them.
+TEST(UrdfImport, ARootLinkAtTheFeetPivotsAtTheHips) {
+  const wbm_test::ShippedModel& g1 = wbm_test::shipped_model("g1_29dof");
+  const Model original = g1.load();
+  constexpr double kDz = 0.79;  // the pelvis's origin 0.792 m up: lowered to 2 mm above the soles
+  const Model lowered = wbm::parse_urdf(g1_with_root_lowered(kDz), g1.options, "g1_lowered.urdf");
+  const double hips = kDz - 0.1027;  // the hip pitch joints' origin, 0.1027 m below the pelvis's
+  EXPECT_NEAR(wbm::upper_body_pivot_above_root(lowered), hips, 1e-12);
+  EXPECT_EQ(wbm::upper_body_pivot_above_root(original), 0.0);
+  const wbm::Dof& z = lowered.dof(lowered.virtual_dofs().ub_z);
+  const double original_height = original.dof(original.virtual_dofs().ub_z).upper;
+  EXPECT_NEAR(z.upper, original_height - 0.1027, 1e-12);  // the hips' height above the soles
+  EXPECT_NEAR(z.lower, 0.8 * z.upper, 1e-12);
+  // Standing straight, every frame where it was, for random joint values.
+  ASSERT_EQ(lowered.num_dofs(), original.num_dofs());
+  std::mt19937_64 rng(4242);
+  for (int trial = 0; trial < 20; ++trial) {
+    const Eigen::VectorXd q = wbm::upright_base_configuration(original, wbm_test::random_configuration(original, rng));
+    Eigen::VectorXd q_lowered = q;
+    q_lowered[lowered.virtual_dofs().ub_z] = z.upper;
+    Data a(original), b(lowered);
+    wbm::forward_kinematics(original, a, q);
+    wbm::forward_kinematics(lowered, b, q_lowered);
+    for (const wbm::Frame& f : original.frames()) {
+      if (f.name == "pelvis" || f.name.rfind("upper_body", 0) == 0) continue;  // moved on purpose; pivots
+      const int g = lowered.find_frame(f.name);
+      ASSERT_GE(g, 0) << f.name;
+      EXPECT_LT((wbm::frame_position(original, a, original.frame_index(f.name)) - wbm::frame_position(lowered, b, g)).norm(),
+                1e-12)
+          << f.name << " at trial " << trial;
+    }
+    EXPECT_NEAR(wbm::frame_position(lowered, b, lowered.frame_index("pelvis")).z(),
+                wbm::frame_position(original, a, original.frame_index("pelvis")).z() - kDz, 1e-12);
+  }
+  // Leaning by the upper-body pitch turns the pelvis about the hips, not the soles.
+  Eigen::VectorXd q = wbm::upright_base_configuration(lowered, lowered.home());
+  Data data(lowered);
+  wbm::forward_kinematics(lowered, data, q);
+  const Eigen::Vector3d hip_before = wbm::frame_position(lowered, data, lowered.frame_index("left_hip_pitch_link"));
+  q[lowered.virtual_dofs().ub_pitch] = 0.3;
+  wbm::forward_kinematics(lowered, data, q);
+  const Eigen::Vector3d hip_after = wbm::frame_position(lowered, data, lowered.frame_index("left_hip_pitch_link"));
+  EXPECT_LT((hip_after - hip_before).norm(), 1e-12);  // the hips lie on the pivot's axis (y)
+  // Given, the same model; a pivot of 0 is the root at its origin again, which the legs refuse.
+  wbm::UrdfImportOptions given = g1.options;
+  given.upper_body_pivot = hips;
+  const Model with_pivot = wbm::parse_urdf(g1_with_root_lowered(kDz), given, "g1_lowered.urdf");
+  EXPECT_EQ(wbm::upper_body_pivot_above_root(with_pivot), wbm::upper_body_pivot_above_root(lowered));
+  given.upper_body_pivot = 0.0;
+  EXPECT_THROW(wbm::parse_urdf(g1_with_root_lowered(kDz), given, "g1_lowered.urdf"), wbm::ParseError);
+  // tests/data/root_at_feet.urdf: the hips 0.55 m above the root link's origin, the feet level
+  // with it (refused before, with the IMU link welded 0.68 m up named as a root).
+  wbm::UrdfImportOptions legs;
+  legs.legs = {"thigh_l", "thigh_r"};
+  const Model at_feet = wbm::load_urdf(wbm_test::source_path("tests/data/root_at_feet.urdf"), legs);
+  EXPECT_NEAR(wbm::upper_body_pivot_above_root(at_feet), 0.55, 1e-12);
+  EXPECT_NEAR(at_feet.dof(at_feet.virtual_dofs().ub_z).upper, 0.55, 1e-12);
+  Data feet_data(at_feet);
+  wbm::forward_kinematics(at_feet, feet_data, wbm::upright_base_configuration(at_feet, at_feet.home()));
+  EXPECT_NEAR(wbm::frame_position(at_feet, feet_data, at_feet.frame_index("base")).z(), 0.0, 1e-12);
+  EXPECT_NEAR(wbm::frame_position(at_feet, feet_data, at_feet.frame_index("imu")).z(), 0.68, 1e-12);
+  for (const double bad : {-0.1, std::numeric_limits<double>::infinity()}) {
+    given.upper_body_pivot = bad;
+    try {
+      wbm::parse_urdf(g1_with_root_lowered(kDz), given, "g1_lowered.urdf");
+      ADD_FAILURE() << bad;
+    } catch (const wbm::ParseError& e) {
+      EXPECT_NE(std::string(e.what()).find("g1_lowered.urdf: the upper body's pivot above the root link "
+                                           "(upper_body_pivot, --upper-body-pivot) must be finite and >= 0 m"),
+                std::string::npos)
+          << e.what();
+    }
+  }
+}
+
 TEST(UrdfImport, RootRpyOutOfRangeIsAnError) {
   const ShippedModel& g1 = wbm_test::shipped_model("g1_29dof");
   for (const Vector3& rpy : {Vector3(0.0, 0.0, std::nan("")), Vector3(7.0, 0.0, 0.0), Vector3(0.0, -1e300, 0.0)}) {
@@ -1212,7 +1324,14 @@ TEST_P(ExportRoundTrip, SameFramePosesAfterExportAndImport) {
   const Model original = entry.load();
   wbm::UrdfImportOptions options;
   options.root = original.body(original.virtual_dofs().upper_body).name;
-  options.root_height = original.dof(original.virtual_dofs().ub_z).upper;
+  // The root link origin's height, and the pivot above it where the origin lies at the feet:
+  // the file's comment names both.
+  const double pivot = wbm::upper_body_pivot_above_root(original);
+  options.root_height = original.dof(original.virtual_dofs().ub_z).upper - pivot;
+  if (pivot > 0.0) {
+    options.upper_body_pivot = pivot;
+    EXPECT_NE(wbm::export_urdf(original).find(", upper_body_pivot "), std::string::npos);
+  }
   // A root turned by root_rpy: the file's comment names it, and the import needs it again.
   const wbm::Matrix3& R_UR = original.body(original.virtual_dofs().upper_body).X_PJ.R;
   if (!R_UR.isIdentity(0.0)) {

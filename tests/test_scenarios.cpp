@@ -1086,6 +1086,12 @@ TEST(Scenarios, BadFilesNameTheLineAndField) {
       // Degrees: named at the option's line (it was the URDF's line, in load_urdf's words).
       {"name: x\nrobot:\n  urdf: g1.urdf\n  legs: [a, b]\n  root_rpy: [90, 0, 180]\ntasks: [{name: a, type: position, frame: f}]\n",
        "bad.yaml:5: robot.root_rpy: expected [roll, pitch, yaw] in rad, each within [-2 pi, 2 pi] (degrees?), got 90, 0, 180"},
+      {"name: x\nrobot:\n  urdf: g1.urdf\n  upper_body_pivot: -0.5\ntasks: [{name: a, type: position, frame: f}]\n",
+       "bad.yaml:4: robot.upper_body_pivot: expected a number >= 0"},
+      {"name: x\nrobot:\n  builtin: paper\n  upper_body_pivot: 0.5\ntasks: [{name: a, type: position, frame: f}]\n",
+       "bad.yaml:4: robot.upper_body_pivot: an option of the URDF import; the built-in paper model takes none"},
+      {"name: x\nrobot:\n  urdf: g1.urdf\n  root_height: -1\ntasks: [{name: a, type: position, frame: f}]\n",
+       "bad.yaml:4: robot.root_height: expected a number >= 0"},
       {"name: x\nrobot:\n  builtin: paper\n  upper_body_x_range: [0, 0.3]\ntasks: [{name: a, type: position, frame: f}]\n",
        "bad.yaml:4: robot.upper_body_x_range: an option of the URDF import; the built-in paper model takes none"},
       {"name: x\nrobot:\n  urdf: g1.urdf\n  upper_body_x_range: [0.3]\ntasks: [{name: a, type: position, frame: f}]\n",

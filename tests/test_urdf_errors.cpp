@@ -54,14 +54,16 @@ const std::vector<Case>& catalogue() {
        "origin, less than a tenth of the legs' length (0.4005 m from a leg's first link to its farthest): the legs do not "
        "point down. If the root link's z axis is not up, give its orientation (root_rpy, --root-rpy)",
        "", {"thigh_l", "thigh_r"}},
-      // The root link's origin at the feet: the links welded to it higher up are named as roots.
-      {"root_at_feet.urdf",
-       "root_at_feet.urdf:11: leg link 'foot_l', the legs' lowest at zero joint values, is not below the root link's "
-       "origin, less than a tenth of the legs' length (0.55 m from a leg's first link to its farthest): the legs do not "
-       "point down. If the root link's z axis is not up, give its orientation (root_rpy, --root-rpy); if its origin lies "
-       "at the feet (as in some CAD exports), choose a link at the hips or above as the root (root, --root) (links "
-       "welded to it higher up: 'imu' 0.68 m above the legs' lowest); if these are not the legs, name the first link of "
-       "each (legs, --legs); or give the root height (root_height, --root-height)",
+      // The root link's origin at the feet, legs that do not point down from the hips (so no
+      // pivot at the hips is taken): the links welded to it higher up are named as roots.
+      {"root_at_feet_legs_folded.urdf",
+       "root_at_feet_legs_folded.urdf:12: leg link 'foot_l', the legs' lowest at zero joint values, is not below the "
+       "root link's origin, less than a tenth of the legs' length (0.538516 m from a leg's first link to its farthest): "
+       "the legs do not point down. If the root link's z axis is not up, give its orientation (root_rpy, --root-rpy); if "
+       "its origin lies at the feet (as in some CAD exports), choose a link at the hips or above as the root (root, "
+       "--root) (links welded to it higher up: 'imu' 0.33 m above the legs' lowest) or give the upper body's pivot "
+       "above it (upper_body_pivot, --upper-body-pivot); if these are not the legs, name the first link of each (legs, "
+       "--legs); or give the root height (root_height, --root-height)",
        "", {"thigh_l", "thigh_r"}},
       {"nested_legs.urdf",
        "nested_legs.urdf:9: leg link 'shin_l' lies inside the leg of 'thigh_l' (legs, --legs): name the first link of "

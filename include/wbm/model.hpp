@@ -215,8 +215,18 @@ int add_virtual_base(ModelBuilder& builder, double height, const std::string& up
 
 /// Same with the nine dofs given (e.g. default_virtual_dofs() with other upper-body ranges),
 /// in the order heel x, y, yaw, upper body x, y, z, roll, pitch, yaw.
+/// @param pivot_above_root [m] how far the upper body's pivot (where the virtual dofs end:
+///   upper_body_z's height, the centre of the roll and pitch) lies above the root link's
+///   origin, along the upper body's z axis: 0 unless the root link's origin lies at the
+///   feet (UrdfImportOptions::upper_body_pivot). The yaw still turns about the vertical
+///   through both. @throws ModelError unless finite and >= 0.
 int add_virtual_base(ModelBuilder& builder, const std::array<Dof, 9>& dofs, const std::string& upper_body_name,
-                     const Inertial& heel, const Inertial& upper_body, const Matrix3& R_UR = Matrix3::Identity());
+                     const Inertial& heel, const Inertial& upper_body, const Matrix3& R_UR = Matrix3::Identity(),
+                     double pivot_above_root = 0.0);
+
+/// The upper body's pivot above the root link's origin [m] (add_virtual_base's
+/// pivot_above_root): 0 for a model without virtual dofs.
+double upper_body_pivot_above_root(const Model& model);
 
 /// `q` (nq) with the virtual dofs upright: the heel at the world origin facing along x, the
 /// upper body straight above it at the top of its height range (the root height given to

@@ -51,6 +51,14 @@ struct UrdfImportOptions {
   /// on the ground), the root's height above it (0 for a world link at the root's origin);
   /// else 1 m. Given: > 0 with legs, >= 0 without (else ParseError).
   double root_height = std::numeric_limits<double>::quiet_NaN();
+  /// Height of the upper body's pivot (where the virtual dofs end: upper_body_z's height, the
+  /// centre of the upper-body roll and pitch) above the root link's origin [m], along the
+  /// upper body's z axis. NaN: 0, unless the root link's origin lies at the feet (a CAD
+  /// export's origin on the floor: the legs, which point down from their first links, reach
+  /// less than a tenth of their length below it); then the height of the legs' first links
+  /// (the hips). The root height stays the root link origin's; upper_body_z's range is
+  /// taken from the pivot's height. Else finite and >= 0 (ParseError).
+  double upper_body_pivot = std::numeric_limits<double>::quiet_NaN();
   /// Orientation of the root link in wbm's upper-body frame (x forward, y left, z up, REP
   /// 103), as URDF roll, pitch, yaw [rad]: zero for a root link that follows REP 103;
   /// (0, 0, pi) for one whose x axis points backward (iCub's root_link); (pi/2, 0, 0) for
