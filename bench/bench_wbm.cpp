@@ -28,7 +28,7 @@
 //
 // Own flags (before Google Benchmark's): --wbm_urdf=FILE --wbm_root=LINK --wbm_legs=A,B
 // --wbm_hands=LEFT,RIGHT [--wbm_head=FRAME] [--wbm_com] [--wbm_posture=DOF,DOF,...] [--wbm_start=DOF=VALUE,...]
-// [--wbm_default_limits] [--wbm_ignore_xacro_elements] [--wbm_drop_legs] [--wbm_root_height=H] [--wbm_root_rpy=R,P,Y] [--wbm_fixed_base]
+// [--wbm_default_limits] [--wbm_ignore_xacro_elements] [--wbm_drop_legs] [--wbm_root_height=H] [--wbm_upper_body_pivot=H] [--wbm_root_rpy=R,P,Y] [--wbm_fixed_base]
 // [--wbm_upper_body_x_range=LO,HI] [--wbm_upper_body_y_range=LO,HI] [--wbm_add_frame=NAME:PARENT:X,Y,Z[:R,P,Y] ...]
 // [--wbm_id=NAME] register a fixture "<NAME>" (default "custom") on that model;
 // --wbm_loop=SECONDS [--wbm_rate=HZ] [--wbm_priority=P] [--wbm_spin] run the periodic
@@ -215,7 +215,7 @@ bool parse_own_flags(int& argc, char** argv, FixtureSpec& custom, LoopRequest& l
   if (!parse_loop_flags(flags, loop, error)) return false;
   if (flags.empty()) return false;
   static const char* known[] = {"urdf",      "root",        "legs",        "hands", "head", "com", "posture",
-                                "default_limits", "ignore_xacro_elements", "drop_legs", "root_height", "root_rpy",
+                                "default_limits", "ignore_xacro_elements", "drop_legs", "root_height", "upper_body_pivot", "root_rpy",
                                 "upper_body_x_range", "upper_body_y_range", "fixed_base", "start", "add_frame", "id"};
   for (const auto& flag : flags)
     if (std::none_of(std::begin(known), std::end(known), [&](const char* k) { return flag.first == k; })) {
@@ -242,6 +242,10 @@ bool parse_own_flags(int& argc, char** argv, FixtureSpec& custom, LoopRequest& l
   }
   if (flags.count("root_height") && !parse_number("--root-height (--wbm_root_height)", flags["root_height"],
                                                    "a number of metres", options.root_height, error))
+    return false;
+  if (flags.count("upper_body_pivot") &&
+      !parse_number("--upper-body-pivot (--wbm_upper_body_pivot)", flags["upper_body_pivot"], "a number of metres",
+                    options.upper_body_pivot, error))
     return false;
   if (flags.count("root_rpy")) {
     const std::vector<std::string> angles = split(flags["root_rpy"], ',');

@@ -10,7 +10,7 @@
 #                                         URDF (below): on your robot
 #   scripts/bench.sh ROBOT.urdf --hands LEFT,RIGHT [--head FRAME] [--root LINK] [--legs A,B]
 #                    [--com] [--posture DOF,DOF,...] [--start DOF=VALUE,...]
-#                    [--default-limits] [--drop-legs] [--root-height H] [--root-rpy R,P,Y] [--fixed-base] [--short]
+#                    [--default-limits] [--drop-legs] [--root-height H] [--upper-body-pivot H] [--root-rpy R,P,Y] [--fixed-base] [--short]
 #                    [--upper-body-x-range LO,HI] [--upper-body-y-range LO,HI] [--ignore-xacro-elements]
 #                    [--add-frame NAME:PARENT:X,Y,Z[:R,P,Y] ...]
 #                                         your robot: both hands position + grasp axis and the

@@ -2,7 +2,7 @@
 # Runs wbm's per-model correctness tests on your robot: the tests every shipped model passes.
 #
 #   scripts/check_model.sh ROBOT.urdf --hands LEFT,RIGHT [--head FRAME] [--legs A,B] [--root LINK]
-#                          [--root-height H] [--root-rpy R,P,Y] [--default-limits] [--drop-legs] [--fixed-base]
+#                          [--root-height H] [--upper-body-pivot H] [--root-rpy R,P,Y] [--default-limits] [--drop-legs] [--fixed-base]
 #                          [--upper-body-x-range LO,HI] [--upper-body-y-range LO,HI] [--ignore-xacro-elements]
 #                          [--add-frame NAME:PARENT:X,Y,Z[:R,P,Y] ...] [--build-dir DIR]
 #

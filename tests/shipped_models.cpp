@@ -59,7 +59,7 @@ std::string join(const std::vector<std::string>& names) {
 
 /// The user's robot (scripts/check_model.sh): WBM_TEST_URDF=PATH, WBM_TEST_HANDS=LEFT,RIGHT
 /// (frames), optional WBM_TEST_HEAD (frame), WBM_TEST_LEGS=A,B, WBM_TEST_ROOT (links),
-/// WBM_TEST_ROOT_HEIGHT (m), WBM_TEST_ROOT_RPY=R,P,Y (rad), WBM_TEST_UPPER_BODY_X_RANGE=LO,HI and
+/// WBM_TEST_ROOT_HEIGHT (m), WBM_TEST_UPPER_BODY_PIVOT (m), WBM_TEST_ROOT_RPY=R,P,Y (rad), WBM_TEST_UPPER_BODY_X_RANGE=LO,HI and
 /// WBM_TEST_UPPER_BODY_Y_RANGE=LO,HI (m), WBM_TEST_DEFAULT_LIMITS=1, WBM_TEST_IGNORE_XACRO_ELEMENTS=1,
 /// WBM_TEST_DROP_LEGS=1, WBM_TEST_FIXED_BASE=1, WBM_TEST_ADD_FRAME=SPEC;SPEC (--add-frame). Its id,
 /// in test names, is "user".
@@ -82,13 +82,16 @@ ShippedModel model_from_environment() {
   const std::vector<std::string> root = split_names("--root", "WBM_TEST_ROOT");
   if (root.size() > 1) environment_error("--root (WBM_TEST_ROOT): expected one link");
   if (!root.empty()) m.options.root = root[0];
-  if (const char* height = std::getenv("WBM_TEST_ROOT_HEIGHT"); height != nullptr && *height != '\0') {
-    char* end = nullptr;
-    m.options.root_height = std::strtod(height, &end);
-    if (*end != '\0' || !(m.options.root_height > 0.0))
-      environment_error(std::string("--root-height (WBM_TEST_ROOT_HEIGHT): expected a height > 0 in metres, got '") +
-                        height + "'");
-  }
+  // Heights >= 0 (the import refuses 0 for a robot with legs, naming the option).
+  for (const auto& [flag, variable, value] :
+       {std::tuple{"--root-height", "WBM_TEST_ROOT_HEIGHT", &m.options.root_height},
+        std::tuple{"--upper-body-pivot", "WBM_TEST_UPPER_BODY_PIVOT", &m.options.upper_body_pivot}})
+    if (const char* text = std::getenv(variable); text != nullptr && *text != '\0') {
+      char* end = nullptr;
+      *value = std::strtod(text, &end);
+      if (*end != '\0' || !(*value >= 0.0) || !std::isfinite(*value))
+        environment_error(std::string(flag) + " (" + variable + "): expected a height >= 0 in metres, got '" + text + "'");
+    }
   if (const std::vector<std::string> rpy = split_names("--root-rpy", "WBM_TEST_ROOT_RPY"); !rpy.empty()) {
     if (rpy.size() != 3) environment_error("--root-rpy (WBM_TEST_ROOT_RPY): expected ROLL,PITCH,YAW in radians");
     for (int k = 0; k < 3; ++k) {

@@ -24,7 +24,7 @@ need_value() {
 }
 
 # model_flag FLAG [NEXT]: when FLAG is one of the model flags, sets model_key (hands, head,
-# legs, root, root_height, root_rpy, upper_body_x_range, upper_body_y_range, default_limits,
+# legs, root, root_height, root_rpy, upper_body_x_range, upper_body_y_range, upper_body_pivot, default_limits,
 # ignore_xacro_elements, drop_legs, fixed_base, add_frame: repeatable), model_value (the flag's
 # value; empty for a switch) and model_shift (the arguments it took: 1 or 2); otherwise
 # model_shift=0. A missing value exits as need_value does.
@@ -33,7 +33,7 @@ model_flag() {
   model_value=""
   model_shift=0
   case "$1" in
-    --hands|--head|--legs|--root|--root-height|--root-rpy|--upper-body-x-range|--upper-body-y-range|--add-frame)
+    --hands|--head|--legs|--root|--root-height|--root-rpy|--upper-body-x-range|--upper-body-y-range|--upper-body-pivot|--add-frame)
       need_value "$@"
       model_value="$2"
       model_shift=2 ;;
