@@ -44,8 +44,8 @@ struct ModelSource {
     app.add_flag("--drop-legs", drop_legs, "remove the legs instead of locking them at zero");
     root_height_option = app.add_option("--root-height", urdf.root_height,
                                         "root link height above the ground [m], > 0 with legs, >= 0 without (default: "
-                                        "from the legs; without legs above a massless root link cut off at or below "
-                                        "it, e.g. a base_link or world on the floor; else 1 m)");
+                                        "from the legs; without legs above a massless root link cut off below it, e.g. "
+                                        "a base_link on the floor, or 0 on a world link at its origin; else 1 m)");
     pivot_option = app.add_option("--upper-body-pivot", urdf.upper_body_pivot,
                                   "height [m] of the upper body's pivot (where the virtual dofs end) above the root "
                                   "link's origin, >= 0 (default 0, or the hips' height where the root link's origin "

@@ -296,6 +296,10 @@ class Fixture {
          "; KDL's velocity solvers do not know joint limits, and the benchmark's loop clamps at them); its times "
          "are still of the same work per call");
   }
+  /// " (the two hands are on one arm: ...)" where every robot joint that moves one hand also
+  /// moves the other (two frames of one arm or body: a singular task set of the flags' making,
+  /// not the robot's), else "".
+  std::string hands_on_one_arm() const;
   void record_states();
   VectorXd goal_configuration() const;
   void add_elements(const std::function<void(std::unique_ptr<wbm::TaskElement>)>& add) const;
@@ -418,6 +422,24 @@ void Fixture::check_names() const {
   if (spec.head_axis) check("--head", [&] { m.frame_index(spec.head); });
   for (const std::string& dof : spec.joint_task) check("--posture", [&] { m.dof_index(dof); });
   for (const auto& start_value : spec.start_values) check("--start", [&] { m.dof_index(start_value.first); });
+}
+
+std::string Fixture::hands_on_one_arm() const {
+  const wbm::Model& m = *model;
+  std::vector<std::set<int>> joints;
+  for (const std::string& hand : {spec.left_hand, spec.right_hand}) {
+    std::set<int>& moving = joints.emplace_back();
+    for (const int b : m.moving_bodies(m.frame(m.frame_index(hand)).body))
+      if (m.dof(m.body(b).dof).role == wbm::DofRole::kJoint) moving.insert(m.body(b).dof);
+  }
+  const auto within = [](const std::set<int>& a, const std::set<int>& b) {
+    return std::includes(b.begin(), b.end(), a.begin(), a.end());
+  };
+  if (!within(joints[0], joints[1]) && !within(joints[1], joints[0])) return "";
+  return " (the two hands are on one arm: every joint that moves '" +
+         (joints[0].size() <= joints[1].size() ? spec.left_hand : spec.right_hand) + "' also moves '" +
+         (joints[0].size() <= joints[1].size() ? spec.right_hand : spec.left_hand) +
+         "'; --hands names a frame on each arm)";
 }
 
 void Fixture::add_elements(const std::function<void(std::unique_ptr<wbm::TaskElement>)>& add) const {
@@ -878,7 +900,8 @@ void Fixture::check_wbm() {
          fmt("%.2g m", tracking) + " from their targets, not checked)");
   else if (mostly_damped && tracking >= 5e-3)
     note("WARNING: " + spec.id + ": the task set is near-singular on this robot (damped in " +
-         fmt("%.0f %%", 100.0 * damped / cycles) + " of the moving cycles): the hands follow their targets within " +
+         fmt("%.0f %%", 100.0 * damped / cycles) + " of the moving cycles)" + hands_on_one_arm() +
+         ": the hands follow their targets within " +
          fmt("%.2g m", tracking) + ", and the timed cycles take the damped path (a second factorisation)");
   else if (often_limited && tracking >= 5e-3)
     note("WARNING: " + spec.id + ": the task set runs into this robot's joint limits, singularities or speed limits "
@@ -890,7 +913,8 @@ void Fixture::check_wbm() {
   else if (mostly_damped)
     note("NOTE: " + spec.id + ": the task set is singular or near-singular on this robot (damped in " +
          fmt("%.0f %%", 100.0 * damped / cycles) + " of the moving cycles; the hands still within " +
-         fmt("%.2g m", tracking) + "): the timed cycles take the damped path (a second factorisation)");
+         fmt("%.2g m", tracking) + ")" + hands_on_one_arm() +
+         ": the timed cycles take the damped path (a second factorisation)");
   // Frozen dofs (b_C = 0) moved exactly zero through the convergence and the moving run.
   for (int i = 0; i < model->num_dofs(); ++i)
     if (!command.free_dofs[i] && c.q()[i] != start[i])

@@ -843,9 +843,17 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
   if (options.leg_mode == LegMode::kDrop && options.legs.empty())
     throw ParseError(source + ": dropping the legs (leg_mode kDrop, --drop-legs) needs the legs: name the first link of "
                               "each (legs, --legs)");
-  for (const std::string& leg : options.legs)
+  for (size_t k = 0; k < options.legs.size(); ++k) {
+    const std::string& leg = options.legs[k];
     if (!checker.has_link(leg))
       throw ParseError(source + ": leg link " + quoted(leg) + " is not defined in the URDF" + checker.closest_links(leg));
+    // Named twice (a typo for the other leg): the other leg stayed free, the height came
+    // from one leg, without a word.
+    if (std::find(options.legs.begin(), options.legs.begin() + static_cast<std::ptrdiff_t>(k), leg) !=
+        options.legs.begin() + static_cast<std::ptrdiff_t>(k))
+      throw ParseError(source + ": leg link " + quoted(leg) + " is named twice (legs, --legs): name the first link of "
+                                "each leg once");
+  }
   const std::string root = root_link(checker, *urdf, options, source);
   for (const std::string& leg : options.legs)
     if (leg == root) throw ParseError(source + ": leg link " + quoted(leg) + " is the root link");
@@ -886,7 +894,10 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
     // from their first links by at least half of it. The virtual dofs then end at the hips'
     // height, so that the upper body crouches, leans and turns about its hips, not its soles.
     // Roots turned without root_rpy are not taken for it: their legs run sideways or up.
-    if (has_legs && -tree.lowest_leg_z_ < 0.1 * tree.leg_length_) {
+    // The feet must lie level with the root link's origin (within a tenth of the legs'
+    // length): frames above the root given as legs (a camera, an IMU: legs of no length)
+    // are not legs at the feet.
+    if (has_legs && std::abs(tree.lowest_leg_z_) < 0.1 * tree.leg_length_) {
       double hips = -std::numeric_limits<double>::infinity();
       for (const std::string& leg : options.legs)
         if (const auto z = tree.z_.find(leg); z != tree.z_.end()) hips = std::max(hips, z->second);
@@ -925,15 +936,21 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
     }
     height = -tree.lowest_leg_z_;  // the root link origin's: below the ground where it lies under the soles
   }
-  // No legs and no height given: a massless root link cut off at or below the root (a
-  // fixed-base robot's base_link or world on the ground, as Pepper's 0.33 m below its Tibia,
-  // or a dual-arm robot's world link at its base's origin: height 0) is put on the ground,
-  // where the file and ROS tools have it, so that the URDF's world frame is wbm's;
-  // otherwise (a world link above the root, or none) 1 m.
+  // No legs and no height given: a massless root link cut off below the root (a fixed-base
+  // robot's base_link or world on the ground, as Pepper's 0.33 m below its Tibia) is put on
+  // the ground, where the file and ROS tools have it. So is one at the root's origin that
+  // names the ground ("world", or REP 120's "base_footprint": a dual-arm robot's world link
+  // at its base), so that the URDF's world frame is wbm's: height 0. Otherwise (REP 120's
+  // massless base_link at a humanoid's pelvis, as NAO's and Romeo's without legs given; a
+  // world link above the root) 1 m.
   // (A floating joint from the world link cuts the tree there: the link is not visited.)
   const auto cut = tree.z_.find(checker.root());
-  if (std::isnan(height) && options.root.empty() && root != checker.root() && cut != tree.z_.end() && cut->second < 1e-6)
-    height = std::max(0.0, -cut->second);  // within a micrometre of the root: 0
+  const bool cut_off = std::isnan(height) && options.root.empty() && root != checker.root() && cut != tree.z_.end();
+  const bool names_the_ground = checker.root() == "world" || checker.root() == "base_footprint";
+  if (cut_off && cut->second < -1e-6)
+    height = -cut->second;
+  else if (cut_off && names_the_ground && cut->second < 1e-6)
+    height = 0.0;  // within a micrometre of the root's origin
   if (std::isnan(height)) height = 1.0;
   if (has_legs && !(height + pivot > 0.0))  // legs of no length level with the pivot (longer ones: above)
     throw ParseError(source + ": the root height above the ground must be > 0 m (the legs' lowest link is not below the "

@@ -975,6 +975,26 @@ TEST(UrdfImport, ACutOffRootLinkBelowTheRootIsOnTheGround) {
   EXPECT_NEAR(raised_root, 0.75, 1e-12);
   EXPECT_NEAR(raised_world, 0.0, 1e-12);  // the world link on the ground
   EXPECT_NEAR(height(with_base_at("0.2 0 0.75"), plain).first, 0.75, 1e-12);  // only the height counts
+  // A massless link at the root's origin that does not name the ground is REP 120's
+  // base_link at a humanoid's pelvis (NAO's, Romeo's without legs given): 1 m, not 0 (0 stood
+  // NAO's soles 0.4 m below the ground for a session).
+  std::string base_link = xml;
+  for (std::size_t at = base_link.find("\"world\""); at != std::string::npos; at = base_link.find("\"world\"", at))
+    base_link.replace(at, 7, "\"base_link\"");
+  const auto root_height = [](const std::string& text) {
+    const Model m = wbm::parse_urdf(text, {}, "dual_arm_renamed.urdf");
+    return m.dof(m.virtual_dofs().ub_z).upper;
+  };
+  EXPECT_EQ(root_height(base_link), 1.0);
+  std::string footprint = xml;
+  for (std::size_t at = footprint.find("\"world\""); at != std::string::npos; at = footprint.find("\"world\"", at))
+    footprint.replace(at, 7, "\"base_footprint\"");
+  EXPECT_EQ(root_height(footprint), 0.0);  // REP 120: on the ground
+  for (const char* id : {"nao", "romeo_small"}) {
+    wbm::UrdfImportOptions no_legs;
+    const Model m = wbm::load_urdf(wbm_test::shipped_model(id).path, no_legs);
+    EXPECT_EQ(m.dof(m.virtual_dofs().ub_z).upper, 1.0) << id;
+  }
   const auto [ground_root, ground_world] = height(xml, plain);  // at the root: on the ground
   EXPECT_EQ(ground_root, 0.0);
   EXPECT_EQ(ground_world, 0.0);

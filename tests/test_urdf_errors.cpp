@@ -54,6 +54,11 @@ const std::vector<Case>& catalogue() {
        "origin, less than a tenth of the legs' length (0.4005 m from a leg's first link to its farthest): the legs do not "
        "point down. If the root link's z axis is not up, give its orientation (root_rpy, --root-rpy)",
        "", {"thigh_l", "thigh_r"}},
+      {"legs_above_root.urdf",
+       "legs_above_root.urdf:26: leg link 'imu', the legs' lowest at zero joint values, is not below the root link's "
+       "origin, less than a tenth of the legs' length (0 m from a leg's first link to its farthest): the legs do not "
+       "point down.",
+       "", {"cam", "imu"}},
       // The root link's origin at the feet, legs that do not point down from the hips (so no
       // pivot at the hips is taken): the links welded to it higher up are named as roots.
       {"root_at_feet_legs_folded.urdf",
@@ -416,6 +421,24 @@ TEST(UrdfErrors, UpperBodyRangesMustBeFiniteWithLowerBelowUpper) {
         EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
       }
     }
+  }
+}
+
+// A leg named twice (a typo for the other leg) left the other leg free and took the height
+// from one leg, without a word.
+TEST(UrdfErrors, ALegNamedTwiceIsAnError) {
+  const wbm_test::ShippedModel& g1 = wbm_test::shipped_model("g1_29dof");
+  wbm::UrdfImportOptions options = g1.options;
+  ASSERT_EQ(options.legs.size(), 2u);
+  options.legs[1] = options.legs[0];
+  try {
+    wbm::load_urdf(g1.path, options);
+    ADD_FAILURE() << "a leg named twice accepted";
+  } catch (const wbm::ParseError& e) {
+    EXPECT_NE(std::string(e.what()).find(": leg link '" + options.legs[0] +
+                                         "' is named twice (legs, --legs): name the first link of each leg once"),
+              std::string::npos)
+        << e.what();
   }
 }
 

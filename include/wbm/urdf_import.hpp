@@ -47,9 +47,10 @@ struct UrdfImportOptions {
   /// point at zero joint values: a leg link's origin or the lowest point of its collision
   /// spheres, boxes and cylinders, or visual ones without collisions, e.g. a sole below the
   /// ankle); without legs, where `root` is not given and the
-  /// URDF's root link is a massless link cut off at or below the root (a base_link or world
-  /// on the ground), the root's height above it (0 for a world link at the root's origin);
-  /// else 1 m. Given: > 0 with legs, >= 0 without (else ParseError).
+  /// URDF's root link is a massless link cut off below the root (a base_link or world on the
+  /// ground), the root's height above it, or one at the root's origin named "world" or
+  /// "base_footprint" (REP 120), 0; else 1 m. Given: > 0 with legs, >= 0 without (else
+  /// ParseError).
   double root_height = std::numeric_limits<double>::quiet_NaN();
   /// Height of the upper body's pivot (where the virtual dofs end: upper_body_z's height, the
   /// centre of the upper-body roll and pitch) above the root link's origin [m], along the
