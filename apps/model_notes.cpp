@@ -107,11 +107,47 @@ std::string massless_note(const Model& model) {
 
 }  // namespace
 
+/// A note when the URDF's world link ("world" or REP 120's "base_footprint", kept as a frame)
+/// does not lie at wbm's world origin with its axes when the base stands upright (the pose of
+/// a fixed base), or "": a world joint that turns the robot or shifts it sideways, which the
+/// upright base does not keep, or a humanoid fixed to the world at its pelvis (its legs would
+/// stand below that "ground": wbm keeps the default height). World-frame targets are wbm's.
+std::string world_link_note(const Model& model) {
+  const VirtualDofs& v = model.virtual_dofs();
+  if (v.upper_body < 0) return "";
+  for (const char* name : {"world", "base_footprint"}) {
+    const int f = model.find_frame(name);
+    if (f < 0 || model.frame(f).body != v.upper_body) continue;
+    Data data(model);
+    forward_kinematics(model, data, upright_base_configuration(model, model.home()));
+    const Transform X_WF = frame_pose(model, data, f);
+    const bool turned = !X_WF.R.isIdentity(1e-7);
+    if (X_WF.p.norm() <= 1e-6 && !turned) return "";
+    std::ostringstream note;
+    const auto plain = [](double x) { return x + 0.0; };  // no "-0"
+    note << std::setprecision(4) << "the URDF's " << name << " link is not wbm's world frame: with the base upright (as a "
+         << "fixed base stands) it lies at (" << plain(X_WF.p.x()) << ", " << plain(X_WF.p.y()) << ", "
+         << plain(X_WF.p.z()) << ") m";
+    if (turned) {
+      const Vector3 rpy = rpy_from_rotation(X_WF.R);
+      // The root link's turn that puts the URDF's world axes on wbm's (R_UR' = R_WF^T R_UR).
+      const Vector3 fix = rpy_from_rotation(X_WF.R.transpose() * model.body(v.upper_body).X_PJ.R);
+      note << ", turned by roll, pitch, yaw " << plain(rpy.x()) << ", " << plain(rpy.y()) << ", " << plain(rpy.z())
+           << " rad (--root-rpy " << std::setprecision(10) << plain(fix.x()) << "," << plain(fix.y()) << ","
+           << plain(fix.z()) << " turns the robot as the file has it)";
+    }
+    note << "; world-frame targets and poses are in wbm's frame (docs/model.md)";
+    return note.str();
+  }
+  return "";
+}
+
 std::vector<std::string> model_notes(const Model& model, bool from_urdf, const std::vector<std::string>& legs) {
   std::vector<std::string> notes;
   if (!from_urdf) return notes;
   for (const std::string& note :
-       {speed_limit_note(model), one_leg_note(legs), legs_direction_note(model, legs), massless_note(model)})
+       {speed_limit_note(model), one_leg_note(legs), legs_direction_note(model, legs), massless_note(model),
+        world_link_note(model)})
     if (!note.empty()) notes.push_back(note);
   return notes;
 }

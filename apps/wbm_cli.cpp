@@ -150,10 +150,12 @@ int model_info(ModelSource& source, bool as_json) {
             << model.num_frames() << " frames, total mass " << std::fixed << std::setprecision(3) << model.total_mass()
             << " kg\n";
   if (const double pivot = wbm::upper_body_pivot_above_root(model); !root.empty() && pivot > 0.0)
-    std::cout << "root link '" << root << "', its origin " << root_height
-              << " m above the ground standing straight; the upper body pivots " << pivot
-              << " m above it (upper_body_z's upper limit " << root_height + pivot
-              << " m; the root link's origin lies at the feet; how it is found: docs/model.md)\n";
+    std::cout << "root link '" << root << "', its origin " << std::abs(root_height)
+              << (root_height < 0.0 ? " m below" : " m above") << " the ground standing straight; the upper body pivots "
+              << pivot
+              << " m above it (upper_body_pivot: chosen at the hips where the root link's origin lies at the feet, or "
+                 "given; upper_body_z's upper limit "
+              << root_height + pivot << " m; how it is found: docs/model.md)\n";
   else if (!root.empty())
     std::cout << "root link '" << root << "', " << root_height
               << " m above the ground standing straight (upper_body_z's upper limit; how it is found: "

@@ -870,18 +870,16 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
   TreeBuilder tree(*urdf, checker, options);
   tree.build(root, R_UR);
   double height = options.root_height;
-  // 0 is the ground: a robot without legs whose base link stands on the world's origin.
   const bool has_legs = std::isfinite(tree.lowest_leg_z_);
-  if (!std::isnan(height) && !(std::isfinite(height) && (height > 0.0 || (height == 0.0 && !has_legs)))) {
+  if (!std::isnan(height) && !std::isfinite(height)) {
     std::ostringstream msg;
-    msg << source << ": the root height (root_height, --root-height) must be finite and "
-        << (has_legs ? "> 0 m for a robot with legs" : ">= 0 m") << ", got " << height;
+    msg << source << ": the root height (root_height, --root-height) must be finite, got " << height;
     throw ParseError(msg.str());
   }
   // The upper body's pivot above the root link's origin: given, or the hips' height where the
   // root link's origin lies at the feet, or 0.
   double pivot = options.upper_body_pivot;
-  if (!std::isnan(pivot) && !(std::isfinite(pivot) && pivot >= 0.0)) {
+  if (!std::isnan(pivot) && !(std::isfinite(pivot) && pivot >= 0.0 && pivot <= 0.5 * kMaxLength)) {
     std::ostringstream msg;
     msg << source << ": the upper body's pivot above the root link (upper_body_pivot, --upper-body-pivot) must be "
         << "finite and >= 0 m, got " << pivot;
@@ -903,6 +901,18 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
         if (const auto z = tree.z_.find(leg); z != tree.z_.end()) hips = std::max(hips, z->second);
       if (hips > 0.0 && hips - tree.lowest_leg_z_ >= 0.5 * tree.leg_length_) pivot = hips;
     }
+  }
+  // Given, the root height is the root link origin's, and the pivot must stand above the
+  // ground with legs, on it or above without: a root at the feet may lie a little below its
+  // soles (the export writes such a height with the pivot, and the import takes both back).
+  if (!std::isnan(height) && (has_legs ? !(height + pivot > 0.0) : height + pivot < 0.0)) {
+    std::ostringstream msg;
+    msg << source << ": the root height (root_height, --root-height) must be "
+        << (has_legs ? "> 0 m for a robot with legs (the upper body's pivot above the ground: root height + "
+                       "upper_body_pivot > 0)"
+                     : ">= 0 m (the upper body's pivot on the ground or above: root height + upper_body_pivot >= 0)")
+        << ", got " << height;
+    throw ParseError(msg.str());
   }
   if (std::isnan(height) && has_legs) {
     // Measured from the legs: they must point down from the pivot (the root link's origin
@@ -934,29 +944,50 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
              "(root_height, --root-height)";
       checker.fail(checker.link_line(tree.lowest_leg_link_), msg.str());
     }
+    // A pivot given far above the legs (5 m on G1) made a crouch range of metres, the legs
+    // deep in the ground in the home pose: at most twice the legs' length above their lowest.
+    if (depth > 2.0 * tree.leg_length_ && options.upper_body_pivot == pivot) {
+      std::ostringstream msg;
+      msg << source << ": the upper body's pivot (upper_body_pivot, --upper-body-pivot, " << pivot
+          << " m above the root link's origin) lies " << depth
+          << " m above the legs' lowest point, more than twice the legs' length (" << tree.leg_length_
+          << " m): the pivot is where the legs carry the upper body, at the hips or the pelvis";
+      throw ParseError(msg.str());
+    }
     height = -tree.lowest_leg_z_;  // the root link origin's: below the ground where it lies under the soles
   }
   // No legs and no height given: a massless root link cut off below the root (a fixed-base
   // robot's base_link or world on the ground, as Pepper's 0.33 m below its Tibia) is put on
-  // the ground, where the file and ROS tools have it. So is one at the root's origin that
-  // names the ground ("world", or REP 120's "base_footprint": a dual-arm robot's world link
-  // at its base), so that the URDF's world frame is wbm's: height 0. Otherwise (REP 120's
+  // the ground, where the file and ROS tools have it. So is a link that names the ground
+  // ("world", or REP 120's "base_footprint"), at the root's origin or within a millimetre of
+  // it (a dual-arm robot's world link at its base), or the root itself (a world link carrying
+  // both arms' bases, as ABB's dual IRB120): height 0, so that the URDF's world frame is wbm's
+  // (`wbm model info` notes a turn or a horizontal shift of the world link, which the upright
+  // base does not keep). Not where the robot reaches below that link: a humanoid fixed to the
+  // world at its pelvis (its legs below the "ground") keeps the default. Otherwise (REP 120's
   // massless base_link at a humanoid's pelvis, as NAO's and Romeo's without legs given; a
   // world link above the root) 1 m.
   // (A floating joint from the world link cuts the tree there: the link is not visited.)
   const auto cut = tree.z_.find(checker.root());
-  const bool cut_off = std::isnan(height) && options.root.empty() && root != checker.root() && cut != tree.z_.end();
-  const bool names_the_ground = checker.root() == "world" || checker.root() == "base_footprint";
-  if (cut_off && cut->second < -1e-6)
-    height = -cut->second;
-  else if (cut_off && names_the_ground && cut->second < 1e-6)
-    height = 0.0;  // within a micrometre of the root's origin
+  const auto names_the_ground = [](const std::string& link) { return link == "world" || link == "base_footprint"; };
+  double lowest_link = 0.0;  // the lowest link origin of the tree, relative to the root's
+  for (const auto& [link, z] : tree.z_)
+    if (link != checker.root()) lowest_link = std::min(lowest_link, z);
+  if (std::isnan(height) && !has_legs) {
+    const bool cut_off = options.root.empty() && root != checker.root() && cut != tree.z_.end();
+    if (cut_off && cut->second < -1e-3)
+      height = -cut->second;
+    else if (cut_off && names_the_ground(checker.root()) && cut->second < 1e-3 &&
+             lowest_link >= std::min(0.0, cut->second) - 1e-3)
+      height = std::max(0.0, -cut->second);
+    else if (root == checker.root() && names_the_ground(root) && lowest_link >= -1e-3)
+      height = 0.0;
+  }
   if (std::isnan(height)) height = 1.0;
   if (has_legs && !(height + pivot > 0.0))  // legs of no length level with the pivot (longer ones: above)
     throw ParseError(source + ": the root height above the ground must be > 0 m (the legs' lowest link is not below the "
                               "root: give the root height explicitly, or, if the root link's z axis is not up, its "
                               "orientation with root_rpy, --root-rpy)");
-
   check_virtual_names(checker, tree, height + pivot);
   std::array<Dof, 9> virtual_dofs = default_virtual_dofs(height + pivot);
   set_upper_body_range(virtual_dofs[3], options.upper_body_x_range, "upper_body_x_range", source);

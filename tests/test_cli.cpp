@@ -198,6 +198,33 @@ TEST(Cli, ModelInfoNotesAModelWithoutMass) {
   EXPECT_EQ(dual_arm.out.find("has no mass"), std::string::npos) << dual_arm.out;
 }
 
+// A world link whose joint turns or shifts the robot: wbm stands the base upright above its
+// origin, so its world frame is not the URDF's; the note says where the URDF's lies and the
+// --root-rpy that turns the robot as the file has it (AgileX Nero's world joint, yaw pi).
+TEST(Cli, ModelInfoNotesAWorldLinkThatIsNotWbmsWorld) {
+  std::string xml = wbm_test::read_file(wbm_test::source_path("models/dual_arm/dual_arm.urdf"));
+  const std::string at_root = R"(<child link="base"/>
+    <origin xyz="0 0 0" rpy="0 0 0"/>)";
+  ASSERT_NE(xml.find(at_root), std::string::npos);
+  xml.replace(xml.find(at_root), at_root.size(), R"(<child link="base"/>
+    <origin xyz="0 0 0" rpy="0 0 1.5707963267948966"/>)");
+  const std::string file = testing::TempDir() + "wbm_cli_world_turned_" + std::to_string(getpid()) + ".urdf";
+  std::ofstream(file) << xml;
+  const CliRun turned = wbm_cli("model info '" + file + "'");
+  const CliRun fixed = wbm_cli("model info '" + file + "' --root-rpy 0,0,1.5707963267948966");
+  std::remove(file.c_str());
+  EXPECT_EQ(turned.status, 0) << turned.err;
+  EXPECT_NE(turned.out.find("note: the URDF's world link is not wbm's world frame: with the base upright (as a fixed base "
+                            "stands) it lies at (0, 0, 0) m, turned by roll, pitch, yaw 0, 0, -1.571 rad (--root-rpy "
+                            "0,0,1.570796327 turns the robot as the file has it)"),
+            std::string::npos)
+      << turned.out;
+  EXPECT_EQ(fixed.out.find("world link is not"), std::string::npos) << fixed.out;
+  // models/dual_arm: the URDF's world is wbm's.
+  const CliRun plain = wbm_cli("model info '" + wbm_test::source_path("models/dual_arm/dual_arm.urdf") + "'");
+  EXPECT_EQ(plain.out.find("world link is not"), std::string::npos) << plain.out;
+}
+
 // The root link and its standing height (G1's from its soles: the ankle roll link's
 // collision spheres 3.5 cm below it).
 TEST(Cli, ModelInfoNamesTheRootLinkAndItsHeight) {

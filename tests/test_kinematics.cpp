@@ -995,6 +995,26 @@ TEST(UrdfImport, ACutOffRootLinkBelowTheRootIsOnTheGround) {
     const Model m = wbm::load_urdf(wbm_test::shipped_model(id).path, no_legs);
     EXPECT_EQ(m.dof(m.virtual_dofs().ub_z).upper, 1.0) << id;
   }
+  // A world link carrying two bases (ABB's dual IRB120): the root itself names the ground.
+  std::string two_bases = xml;
+  const std::string world_joint = "<joint name=\"world_to_base\"";
+  ASSERT_NE(two_bases.find(world_joint), std::string::npos);
+  two_bases.insert(two_bases.find(world_joint),
+                   "<link name=\"second_pedestal\"/><joint name=\"world_to_second\" type=\"fixed\"><parent "
+                   "link=\"world\"/><child link=\"second_pedestal\"/><origin xyz=\"0 1 0\"/></joint>\n");
+  const Model two = wbm::parse_urdf(two_bases, {}, "two_bases.urdf");
+  EXPECT_EQ(two.body(two.virtual_dofs().upper_body).name, "world");
+  EXPECT_EQ(two.dof(two.virtual_dofs().ub_z).upper, 0.0);
+  // A humanoid fixed to the world at its pelvis (a simulator's setup), no legs given: its legs
+  // would stand below that "ground", so the default 1 m (0 stood G1's ankles 0.76 m deep).
+  std::string g1 = wbm_test::read_file(wbm_test::shipped_model("g1_29dof").path);
+  const std::string pelvis = "<link name=\"pelvis\">";
+  ASSERT_NE(g1.find(pelvis), std::string::npos);
+  g1.insert(g1.find(pelvis), "<link name=\"world\"/><joint name=\"world_to_pelvis\" type=\"fixed\"><parent "
+                             "link=\"world\"/><child link=\"pelvis\"/></joint>\n");
+  const Model fixed_g1 = wbm::parse_urdf(g1, {}, "g1_world.urdf");
+  EXPECT_EQ(fixed_g1.dof(fixed_g1.virtual_dofs().ub_z).upper, 1.0);
+  EXPECT_EQ(root_height(with_base_at("0 0 -0.0005")), 0.0);  // within a millimetre: on the ground
   const auto [ground_root, ground_world] = height(xml, plain);  // at the root: on the ground
   EXPECT_EQ(ground_root, 0.0);
   EXPECT_EQ(ground_world, 0.0);
@@ -1098,6 +1118,29 @@ TEST(UrdfImport, ARootLinkAtTheFeetPivotsAtTheHips) {
   wbm::forward_kinematics(lowered, data, q);
   const Eigen::Vector3d hip_after = wbm::frame_position(lowered, data, lowered.frame_index("left_hip_pitch_link"));
   EXPECT_LT((hip_after - hip_before).norm(), 1e-12);  // the hips lie on the pivot's axis (y)
+  // The root link's origin 8 mm below the soles: a negative root height, which the export's
+  // comment writes and the import takes back with the pivot (it refused any height <= 0).
+  const Model below = wbm::parse_urdf(g1_with_root_lowered(0.8), g1.options, "g1_below.urdf");
+  const double below_pivot = wbm::upper_body_pivot_above_root(below);
+  const double below_height = below.dof(below.virtual_dofs().ub_z).upper - below_pivot;
+  EXPECT_NEAR(below_height, -0.008, 1e-3);
+  const std::string exported = wbm::export_urdf(below);
+  EXPECT_NE(exported.find("--upper-body-pivot "), std::string::npos);
+  wbm::UrdfImportOptions back_options;
+  back_options.root = "pelvis";
+  back_options.root_height = below_height;
+  back_options.upper_body_pivot = below_pivot;
+  const Model back = wbm::parse_urdf(exported, back_options, "g1_below_export.urdf");
+  EXPECT_EQ(back.dof(back.virtual_dofs().ub_z).upper, below.dof(below.virtual_dofs().ub_z).upper);
+  // A pivot given far above the legs (5 m: a crouch range of metres) is refused.
+  wbm::UrdfImportOptions high = g1.options;
+  high.upper_body_pivot = 5.0;
+  try {
+    wbm::load_urdf(g1.path, high);
+    ADD_FAILURE() << "a pivot 5 m above the pelvis accepted";
+  } catch (const wbm::ParseError& e) {
+    EXPECT_NE(std::string(e.what()).find("more than twice the legs' length"), std::string::npos) << e.what();
+  }
   // Given, the same model; a pivot of 0 is the root at its origin again, which the legs refuse.
   wbm::UrdfImportOptions given = g1.options;
   given.upper_body_pivot = hips;

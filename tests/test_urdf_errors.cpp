@@ -6,6 +6,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -395,8 +396,13 @@ TEST(UrdfErrors, RootHeightGivenMustBeFiniteAndPositive) {
         EXPECT_EQ(model.dof(model.virtual_dofs().ub_z).upper, 0.0);
       } catch (const wbm::ParseError& e) {
         EXPECT_FALSE(!legs && height == 0.0) << e.what();
-        const std::string expected = std::string(": the root height (root_height, --root-height) must be finite and ") +
-                                     (legs ? "> 0 m for a robot with legs, got" : ">= 0 m, got");
+        const std::string expected =
+            std::string(": the root height (root_height, --root-height) must be ") +
+            (!std::isfinite(height) ? "finite, got"
+             : legs                 ? "> 0 m for a robot with legs (the upper body's pivot above the ground: root height "
+                                      "+ upper_body_pivot > 0), got"
+                                    : ">= 0 m (the upper body's pivot on the ground or above: root height + "
+                                      "upper_body_pivot >= 0), got");
         EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
       }
     }
