@@ -69,6 +69,13 @@ struct JointInfo : Located {
 /// Structural check of the XML with line numbers, before urdfdom builds the model.
 /// urdfdom reports errors without lines (and for some of them not at all), so every
 /// error a user can make in the structure is caught here first.
+/// A `<capsule>` of a link's collision or visual element (MuJoCo's primitive, written so in
+/// URDFs converted from MJCF), which urdfdom drops with a message: kept here for the soles.
+struct Capsule {
+  Transform X_LG;  ///< its pose in the link's frame; its axis is its z axis
+  double radius = 0.0, length = 0.0;
+};
+
 class UrdfChecker {
  public:
   UrdfChecker(const std::string& xml, const std::string& source, const UrdfImportOptions& options)
@@ -152,6 +159,13 @@ class UrdfChecker {
   const std::vector<JointInfo>& joints() const { return joints_; }
   const JointInfo& joint(const std::string& name) const { return joints_[joint_index_.at(name)]; }
   bool has_link(const std::string& name) const { return links_.count(name) > 0; }
+  /// The capsules of a link's collision (or visual) elements; empty if none.
+  const std::vector<Capsule>& capsules(const std::string& link, bool collision) const {
+    static const std::vector<Capsule> kNone;
+    const auto& map = collision ? collision_capsules_ : visual_capsules_;
+    const auto found = map.find(link);
+    return found == map.end() ? kNone : found->second;
+  }
   /// " (did you mean 'x'?)" for a link name the file does not define.
   std::string closest_links(const std::string& name) const {
     std::vector<std::string> names;
@@ -254,6 +268,26 @@ class UrdfChecker {
                          std::to_string(links_[name].line) + ")");
     links_[name] = {name, e->Row()};
     check_numeric_attributes(e, what);
+    for (const char* kind : {"collision", "visual"})
+      for (const TiXmlElement* c = e->FirstChildElement(kind); c; c = c->NextSiblingElement(kind)) {
+        const TiXmlElement* geometry = c->FirstChildElement("geometry");
+        const TiXmlElement* capsule = geometry ? geometry->FirstChildElement("capsule") : nullptr;
+        if (capsule == nullptr || !capsule->Attribute("radius") || !capsule->Attribute("length")) continue;
+        Capsule k;
+        k.radius = numbers(capsule, "radius", 1, what)[0];  // finite: checked above
+        k.length = numbers(capsule, "length", 1, what)[0];
+        if (const TiXmlElement* origin = c->FirstChildElement("origin")) {
+          if (origin->Attribute("xyz")) {
+            const std::vector<double> p = numbers(origin, "xyz", 3, what);
+            k.X_LG.p = Vector3(p[0], p[1], p[2]);
+          }
+          if (origin->Attribute("rpy")) {
+            const std::vector<double> r = numbers(origin, "rpy", 3, what);
+            k.X_LG.R = rotation_from_rpy(r[0], r[1], r[2]);
+          }
+        }
+        (kind[0] == 'c' ? collision_capsules_ : visual_capsules_)[name].push_back(k);
+      }
     if (const TiXmlElement* inertial = e->FirstChildElement("inertial")) {
       const TiXmlElement* mass = inertial->FirstChildElement("mass");
       if (mass == nullptr) fail(inertial->Row(), what + ": <inertial> lacks <mass>");
@@ -440,6 +474,7 @@ class UrdfChecker {
   std::string source_;
   const UrdfImportOptions& options_;
   std::map<std::string, Located> links_;
+  std::map<std::string, std::vector<Capsule>> collision_capsules_, visual_capsules_;
   std::vector<JointInfo> joints_;
   std::map<std::string, size_t> joint_index_;
   std::string root_;
@@ -462,9 +497,16 @@ Vector3 to_vector(const urdf::Vector3& v) { return {v.x, v.y, v.z}; }
 /// the ankle, H1's and Atlas's boxes). Visuals only without collisions: they may be markers
 /// (EngineAI PM v2 draws a 2 cm sphere around its sole point, which stood it 2 cm high).
 /// Meshes are left out (their files are not read), and so are primitives with a size that is
-/// not finite or beyond kMaxLength (they say nothing of where the sole is).
-double lowest_primitive_z(const urdf::Link& link, const Transform& X_RL) {
+/// not finite or beyond kMaxLength (they say nothing of where the sole is). Capsules, which
+/// urdfdom drops, come from the checker (`collision_capsules`, `visual_capsules`).
+double lowest_primitive_z(const urdf::Link& link, const Transform& X_RL, const std::vector<Capsule>& collision_capsules,
+                          const std::vector<Capsule>& visual_capsules) {
   double lowest = std::numeric_limits<double>::infinity();
+  const auto add_capsule = [&](const Capsule& k) {  // a cylinder along z with hemispheres on its ends
+    const Transform X_RG = X_RL * k.X_LG;
+    const double depth = 0.5 * std::abs(X_RG.R(2, 2)) * k.length + k.radius;
+    if (std::isfinite(depth) && depth >= 0.0 && depth <= kMaxLength) lowest = std::min(lowest, X_RG.p.z() - depth);
+  };
   const auto add = [&](const urdf::Pose& origin, const urdf::GeometrySharedPtr& geometry) {
     if (!geometry) return;
     const Transform X_RG = X_RL * to_transform(origin);
@@ -484,9 +526,12 @@ double lowest_primitive_z(const urdf::Link& link, const Transform& X_RL) {
   };
   for (const urdf::CollisionSharedPtr& collision : link.collision_array)
     if (collision) add(collision->origin, collision->geometry);
-  if (link.collision_array.empty())
+  for (const Capsule& k : collision_capsules) add_capsule(k);
+  if (link.collision_array.empty() && collision_capsules.empty()) {
     for (const urdf::VisualSharedPtr& visual : link.visual_array)
       if (visual) add(visual->origin, visual->geometry);
+    for (const Capsule& k : visual_capsules) add_capsule(k);
+  }
   return lowest;
 }
 
@@ -619,7 +664,8 @@ class TreeBuilder {
     if (mode != Mode::kNormal) {
       leg_links_.insert(link_name);
       leg_length_ = std::max(leg_length_, (X_RL.p - leg_origin_).norm());
-      const double lowest = std::min(X_RL.p.z(), lowest_primitive_z(link, X_RL));
+      const double lowest = std::min(X_RL.p.z(), lowest_primitive_z(link, X_RL, checker_.capsules(link_name, true),
+                                                                    checker_.capsules(link_name, false)));
       if (lowest < lowest_leg_z_) {
         lowest_leg_z_ = lowest;
         lowest_leg_link_ = link_name;

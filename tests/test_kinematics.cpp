@@ -630,6 +630,35 @@ TEST(UrdfImport, ALongListOfNamesSaysHowManyItLeavesOut) {
 // links, H1's and Atlas's foot boxes 6.2 and 7.4 cm; NAO's force-sensor boxes 2.5 mm below its
 // sole links, Romeo's sole links themselves (before, every one of them had its lowest link
 // origin on the ground, the soles below it).
+// MuJoCo's capsules (URDFs converted from MJCF use them for feet), which urdfdom drops with a
+// message: the soles count them too. G1's foot spheres written as capsules lying along x give
+// the same height; standing upright, 1 cm of axis more below (0.792 m before, 0.757 from the
+// ankle's origin when they were dropped).
+TEST(UrdfImport, CapsulesUnderTheFeetCountForTheSoles) {
+  const wbm_test::ShippedModel& g1 = wbm_test::shipped_model("g1_29dof");
+  const std::string xml = wbm_test::read_file(g1.path);
+  const auto with_capsules = [&](const std::string& rpy) {
+    std::string edited = xml;
+    int replaced = 0;
+    for (std::size_t at = edited.find("<collision>"); at != std::string::npos; at = edited.find("<collision>", at + 1)) {
+      const std::size_t end = edited.find("</collision>", at);
+      const std::size_t sphere = edited.find("<sphere radius=\"0.005\"/>", at);
+      if (sphere == std::string::npos || sphere > end) continue;
+      edited.replace(sphere, 25, "<capsule radius=\"0.005\" length=\"0.02\"/>");
+      const std::size_t origin_rpy = edited.find("rpy=\"0 0 0\"", at);
+      if (origin_rpy < sphere) edited.replace(origin_rpy, 11, "rpy=\"" + rpy + "\"");
+      ++replaced;
+    }
+    EXPECT_GE(replaced, 8);  // four under each foot
+    const Model m = wbm::parse_urdf(edited, g1.options, "g1_capsules.urdf");
+    return m.dof(m.virtual_dofs().ub_z).upper;
+  };
+  const Model original = g1.load();
+  const double height = original.dof(original.virtual_dofs().ub_z).upper;
+  EXPECT_NEAR(with_capsules("0 1.5707963267948966 0"), height, 1e-12);
+  EXPECT_NEAR(with_capsules("0 0 0"), height + 0.01, 1e-12);
+}
+
 TEST(UrdfImport, TheShippedRobotsStandOnTheirSoles) {
   for (const auto& [id, above] : {std::pair{"g1_29dof", 0.035}, std::pair{"h1", 0.062}, std::pair{"atlas", 0.0741},
                                   std::pair{"nao", 0.0025}, std::pair{"romeo_small", 0.0}}) {

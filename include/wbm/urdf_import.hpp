@@ -45,7 +45,7 @@ struct UrdfImportOptions {
   LegMode leg_mode = LegMode::kLock;  ///< kDrop needs `legs` (else ParseError).
   /// Height of the root link origin above the ground [m]. NaN: from the legs (their lowest
   /// point at zero joint values: a leg link's origin or the lowest point of its collision
-  /// spheres, boxes and cylinders, or visual ones without collisions, e.g. a sole below the
+  /// spheres, boxes, cylinders and capsules, or visual ones without collisions, e.g. a sole below the
   /// ankle); without legs, where `root` is not given and the
   /// URDF's root link is a massless link cut off below the root (a base_link or world on the
   /// ground), the root's height above it, or one at the root's origin named "world" or
