@@ -1016,17 +1016,25 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
   // (A floating joint from the world link cuts the tree there: the link is not visited.)
   const auto cut = tree.z_.find(checker.root());
   const auto names_the_ground = [](const std::string& link) { return link == "world" || link == "base_footprint"; };
-  double lowest_link = 0.0;  // the lowest link origin of the tree, relative to the root's
+  // The tree's extent below and above a height z (link origins at zero joint values, relative
+  // to the root's): a robot that reaches further below the "ground" than above it hangs from
+  // it (G1 fixed at its pelvis: legs 0.76 m down, head 0.43 m up); arms that hang a little
+  // below a pedestal's top at zero joint values do not make it so (RB-Y1's grippers, 0.19 m
+  // down, its torso 0.66 m up).
+  double lowest_link = 0.0, highest_link = 0.0;
   for (const auto& [link, z] : tree.z_)
-    if (link != checker.root()) lowest_link = std::min(lowest_link, z);
+    if (link != checker.root()) {
+      lowest_link = std::min(lowest_link, z);
+      highest_link = std::max(highest_link, z);
+    }
+  const auto stands_on = [&](double z) { return z - lowest_link <= std::max(highest_link - z, 1e-3); };
   if (std::isnan(height) && !has_legs) {
     const bool cut_off = options.root.empty() && root != checker.root() && cut != tree.z_.end();
     if (cut_off && cut->second < -1e-3)
       height = -cut->second;
-    else if (cut_off && names_the_ground(checker.root()) && cut->second < 1e-3 &&
-             lowest_link >= std::min(0.0, cut->second) - 1e-3)
+    else if (cut_off && names_the_ground(checker.root()) && cut->second < 1e-3 && stands_on(cut->second))
       height = std::max(0.0, -cut->second);
-    else if (root == checker.root() && names_the_ground(root) && lowest_link >= -1e-3)
+    else if (root == checker.root() && names_the_ground(root) && stands_on(0.0))
       height = 0.0;
   }
   if (std::isnan(height)) height = 1.0;

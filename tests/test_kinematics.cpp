@@ -1034,6 +1034,13 @@ TEST(UrdfImport, ACutOffRootLinkBelowTheRootIsOnTheGround) {
   const Model two = wbm::parse_urdf(two_bases, {}, "two_bases.urdf");
   EXPECT_EQ(two.body(two.virtual_dofs().upper_body).name, "world");
   EXPECT_EQ(two.dof(two.virtual_dofs().ub_z).upper, 0.0);
+  // Something hanging a little below the world link (RB-Y1's grippers at zero joint values,
+  // 0.19 m below its pedestal's top; the robot reaches further up): still on the ground.
+  std::string hanging = xml;
+  hanging.insert(hanging.find(world_joint),
+                 "<link name=\"cable\"/><joint name=\"base_to_cable\" type=\"fixed\"><parent link=\"base\"/><child "
+                 "link=\"cable\"/><origin xyz=\"0 0 -0.2\"/></joint>\n");
+  EXPECT_EQ(root_height(hanging), 0.0);
   // A humanoid fixed to the world at its pelvis (a simulator's setup), no legs given: its legs
   // would stand below that "ground", so the default 1 m (0 stood G1's ankles 0.76 m deep).
   std::string g1 = wbm_test::read_file(wbm_test::shipped_model("g1_29dof").path);
