@@ -1029,7 +1029,13 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
     }
   const auto stands_on = [&](double z) { return z - lowest_link <= std::max(highest_link - z, 1e-3); };
   if (std::isnan(height) && !has_legs) {
-    const bool cut_off = options.root.empty() && root != checker.root() && cut != tree.z_.end();
+    // The default root, or the same link named (`--root base` where base is the default
+    // already: the same robot, the same height). Another root given by name may lie anywhere
+    // in the tree, its URDF root no cut-off link but a body above or below it.
+    UrdfImportOptions by_default = options;
+    by_default.root.clear();
+    const bool default_root = root == root_link(checker, *urdf, by_default, source);
+    const bool cut_off = default_root && root != checker.root() && cut != tree.z_.end();
     if (cut_off && cut->second < -1e-3)
       height = -cut->second;
     else if (cut_off && names_the_ground(checker.root()) && cut->second < 1e-3 && stands_on(cut->second))

@@ -980,8 +980,8 @@ TEST(UrdfImport, RootRpyTurnsTheRootAsAWeldedTurnedRootLinkWould) {
 // its height above it. A world link at the root (models/dual_arm's) puts the root on the
 // ground (height 0: the URDF's world frame is wbm's; 1 m before, which drew the pedestal
 // floating and put every world-frame target 1 m off the ROS tools' numbers); a world link
-// above the root leaves the default 1 m, as does a root given by name; legs and a given
-// height decide before.
+// above the root leaves the default 1 m, as does a root other than the default given by
+// name (the default root named is the default); legs and a given height decide before.
 TEST(UrdfImport, ACutOffRootLinkBelowTheRootIsOnTheGround) {
   const std::string xml = wbm_test::read_file(wbm_test::source_path("models/dual_arm/dual_arm.urdf"));
   const std::string at_root = R"(<child link="base"/>
@@ -1063,9 +1063,15 @@ TEST(UrdfImport, ACutOffRootLinkBelowTheRootIsOnTheGround) {
   wbm::UrdfImportOptions given = plain;
   given.root_height = 0.9;
   EXPECT_NEAR(height(with_base_at("0 0 0.75"), given).first, 0.9, 1e-12);
+  // The default root named (`--root base`): the same robot, the same height (1 m before); a
+  // root elsewhere given by name keeps the default 1 m.
   wbm::UrdfImportOptions named = plain;
   named.root = "base";
-  EXPECT_NEAR(height(with_base_at("0 0 0.75"), named).first, 1.0, 1e-12);
+  EXPECT_NEAR(height(with_base_at("0 0 0.75"), named).first, 0.75, 1e-12);
+  EXPECT_EQ(height(xml, named).first, 0.0);
+  named.root = "torso";
+  const Model torso_root = wbm::parse_urdf(with_base_at("0 0 0.75"), named, "dual_arm_edited.urdf");
+  EXPECT_EQ(torso_root.dof(torso_root.virtual_dofs().ub_z).upper, 1.0);
   // A floating joint from the world link (a free-standing robot's export) cuts the tree there:
   // 1 m (the lookup of the unvisited link threw std::out_of_range, "map::at", once).
   std::string floating = with_base_at("0 0 0.75");
