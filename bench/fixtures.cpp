@@ -425,20 +425,13 @@ void Fixture::check_names() const {
 }
 
 std::string Fixture::hands_on_one_arm() const {
-  const wbm::Model& m = *model;
-  std::vector<std::set<int>> joints;
-  for (const std::string& hand : {spec.left_hand, spec.right_hand}) {
-    std::set<int>& moving = joints.emplace_back();
-    for (const int b : m.moving_bodies(m.frame(m.frame_index(hand)).body))
-      if (m.dof(m.body(b).dof).role == wbm::DofRole::kJoint) moving.insert(m.body(b).dof);
-  }
-  const auto within = [](const std::set<int>& a, const std::set<int>& b) {
-    return std::includes(b.begin(), b.end(), a.begin(), a.end());
-  };
-  if (!within(joints[0], joints[1]) && !within(joints[1], joints[0])) return "";
-  return " (the two hands are on one arm: every joint that moves '" +
-         (joints[0].size() <= joints[1].size() ? spec.left_hand : spec.right_hand) + "' also moves '" +
-         (joints[0].size() <= joints[1].size() ? spec.right_hand : spec.left_hand) +
+  if (!wbm_test::on_one_arm(*model, spec.left_hand, spec.right_hand)) return "";
+  // The frame fewer joints move is the one further up the arm.
+  const bool left_first = wbm_test::joints_moving(*model, spec.left_hand).size() <=
+                          wbm_test::joints_moving(*model, spec.right_hand).size();
+  const std::string& upper = left_first ? spec.left_hand : spec.right_hand;
+  const std::string& lower = left_first ? spec.right_hand : spec.left_hand;
+  return " (the two hands are on one arm: every joint that moves '" + upper + "' also moves '" + lower +
          "'; --hands names a frame on each arm)";
 }
 

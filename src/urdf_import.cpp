@@ -66,9 +66,6 @@ struct JointInfo : Located {
   } missing_limit;
 };
 
-/// Structural check of the XML with line numbers, before urdfdom builds the model.
-/// urdfdom reports errors without lines (and for some of them not at all), so every
-/// error a user can make in the structure is caught here first.
 /// A `<capsule>` of a link's collision or visual element (MuJoCo's primitive, written so in
 /// URDFs converted from MJCF), which urdfdom drops with a message: kept here for the soles.
 struct Capsule {
@@ -76,6 +73,9 @@ struct Capsule {
   double radius = 0.0, length = 0.0;
 };
 
+/// Structural check of the XML with line numbers, before urdfdom builds the model.
+/// urdfdom reports errors without lines (and for some of them not at all), so every
+/// error a user can make in the structure is caught here first.
 class UrdfChecker {
  public:
   UrdfChecker(const std::string& xml, const std::string& source, const UrdfImportOptions& options)
@@ -829,6 +829,152 @@ void check_virtual_names(const UrdfChecker& checker, const TreeBuilder& tree, do
   for (const Frame& frame : tree.frames_) check_link(frame.name);
 }
 
+/// Where the root link stands (UrdfImportOptions::root_height, upper_body_pivot; docs/model.md):
+/// the root link origin's height above the ground [m] and the upper body's pivot above that
+/// origin [m], given, measured from the legs, or taken from a cut-off root link.
+/// @throws ParseError naming the option or the file's line.
+struct RootPlacement {
+  double height = 0.0, pivot = 0.0;
+};
+RootPlacement place_root(const UrdfChecker& checker, const TreeBuilder& tree, const urdf::ModelInterface& urdf,
+                         const UrdfImportOptions& options, const std::string& root, const std::string& source) {
+  double height = options.root_height;
+  const bool has_legs = std::isfinite(tree.lowest_leg_z_);
+  if (!std::isnan(height) && !std::isfinite(height)) {
+    std::ostringstream msg;
+    msg << source << ": the root height (root_height, --root-height) must be finite, got " << height;
+    throw ParseError(msg.str());
+  }
+  // The upper body's pivot above the root link's origin: given, or the hips' height where the
+  // root link's origin lies at the feet, or 0.
+  double pivot = options.upper_body_pivot;
+  const bool pivot_given = !std::isnan(pivot);
+  if (pivot_given && !(std::isfinite(pivot) && pivot >= 0.0 && pivot <= 0.5 * kMaxLength)) {
+    std::ostringstream msg;
+    msg << source << ": the upper body's pivot above the root link (upper_body_pivot, --upper-body-pivot) must be "
+        << "finite and >= 0 m, got " << pivot;
+    throw ParseError(msg.str());
+  }
+  if (!pivot_given) {
+    pivot = 0.0;
+    // A root link whose origin lies at the feet (Surena V's and Berkeley Humanoid Lite's CAD
+    // exports): the legs reach less than a tenth of their length below it, yet point down
+    // from their first links by at least half of it. The virtual dofs then end at the hips'
+    // height, so that the upper body crouches, leans and turns about its hips, not its soles.
+    // Roots turned without root_rpy are not taken for it: their legs run sideways or up.
+    // The feet must lie level with the root link's origin (within a tenth of the legs'
+    // length): frames above the root given as legs (a camera, an IMU: legs of no length)
+    // are not legs at the feet.
+    if (has_legs && std::abs(tree.lowest_leg_z_) < 0.1 * tree.leg_length_) {
+      double hips = -std::numeric_limits<double>::infinity();
+      for (const std::string& leg : options.legs)
+        if (const auto z = tree.z_.find(leg); z != tree.z_.end()) hips = std::max(hips, z->second);
+      if (hips > 0.0 && hips - tree.lowest_leg_z_ >= 0.5 * tree.leg_length_) pivot = hips;
+    }
+  }
+  // Given, the root height is the root link origin's, and the pivot must stand above the
+  // ground with legs, on it or above without: a root at the feet may lie a little below its
+  // soles (the export writes such a height with the pivot, and the import takes both back).
+  if (!std::isnan(height) && (has_legs ? !(height + pivot > 0.0) : height + pivot < 0.0)) {
+    std::ostringstream msg;
+    msg << source << ": the root height (root_height, --root-height) must be "
+        << (has_legs ? "> 0 m for a robot with legs (the upper body's pivot above the ground: root height + "
+                       "upper_body_pivot > 0)"
+                     : ">= 0 m (the upper body's pivot on the ground or above: root height + upper_body_pivot >= 0)")
+        << ", got " << height;
+    throw ParseError(msg.str());
+  }
+  if (std::isnan(height) && has_legs) {
+    // Measured from the legs: they must point down from the pivot (the root link's origin
+    // unless it lies at the feet), their lowest link (at zero joint values) at least a tenth
+    // of the legs' length below it.
+    // A root link turned upside down or on its side (root_rpy wrong or missing) leaves the
+    // legs level with the root or above it; such a "height" of millimetres (Poppy's root
+    // turned by roll 3.14159: 1.2e-8 m; by roll pi/2: 5 mm of its 0.39 m legs) was accepted
+    // before, and the robot stood on its head. Only a tenth: legs may splay or fold (random
+    // H1 variants: 0.57 m down with 2.0 m long legs), and a root turned by pitch pi/2 (legs
+    // forward, 0.07 of 0.39 m down on Poppy) is not told from such a robot (`wbm model info`
+    // notes legs that point more sideways than down: apps/model_notes.cpp).
+    const double depth = pivot - tree.lowest_leg_z_;
+    if (depth < 0.1 * tree.leg_length_) {
+      std::ostringstream msg;
+      msg << "leg link " << quoted(tree.lowest_leg_link_) << ", the legs' lowest at zero joint values, is ";
+      if (depth > 0.0)
+        msg << depth << " m below";
+      else
+        msg << "not below";
+      msg << (pivot > 0.0 ? " the upper body's pivot" : " the root link's origin")
+          << ", less than a tenth of the legs' length (" << tree.leg_length_
+          << " m from a leg's first link to its farthest): the legs do not point down. If the root link's z axis is "
+             "not up, give its orientation (root_rpy, --root-rpy); if its origin lies at the feet (as in some CAD "
+             "exports), choose a link at the hips or above as the root (root, --root)"
+          << tree.higher_root_links(0.1 * tree.leg_length_)
+          << " or give the upper body's pivot above it (upper_body_pivot, --upper-body-pivot)"
+          << "; if these are not the legs, name the first link of each (legs, --legs); or give the root height "
+             "(root_height, --root-height)";
+      checker.fail(checker.link_line(tree.lowest_leg_link_), msg.str());
+    }
+    // A pivot given far above the legs (5 m on G1) made a crouch range of metres, the legs
+    // deep in the ground in the home pose: at most twice the legs' length above their lowest.
+    if (depth > 2.0 * tree.leg_length_ && pivot_given) {
+      std::ostringstream msg;
+      msg << source << ": the upper body's pivot (upper_body_pivot, --upper-body-pivot, " << pivot
+          << " m above the root link's origin) lies " << depth
+          << " m above the legs' lowest point, more than twice the legs' length (" << tree.leg_length_
+          << " m): the pivot is where the legs carry the upper body, at the hips or the pelvis";
+      throw ParseError(msg.str());
+    }
+    height = -tree.lowest_leg_z_;  // the root link origin's: below the ground where it lies under the soles
+  }
+  // No legs and no height given: a massless root link cut off below the root (a fixed-base
+  // robot's base_link or world on the ground, as Pepper's 0.33 m below its Tibia) is put on
+  // the ground, where the file and ROS tools have it. So is a link that names the ground
+  // ("world", or REP 120's "base_footprint"), at the root's origin or within a millimetre of
+  // it (a dual-arm robot's world link at its base), or the root itself (a world link carrying
+  // both arms' bases, as ABB's dual IRB120): height 0, so that the URDF's world frame is wbm's
+  // (`wbm model info` notes a turn or a horizontal shift of the world link, which the upright
+  // base does not keep). Not where the robot reaches below that link: a humanoid fixed to the
+  // world at its pelvis (its legs below the "ground") keeps the default. Otherwise (REP 120's
+  // massless base_link at a humanoid's pelvis, as NAO's and Romeo's without legs given; a
+  // world link above the root) 1 m.
+  // (A floating joint from the world link cuts the tree there: the link is not visited.)
+  const auto cut = tree.z_.find(checker.root());
+  const auto names_the_ground = [](const std::string& link) { return link == "world" || link == "base_footprint"; };
+  // The tree's extent below and above a height z (link origins at zero joint values, relative
+  // to the root's): a robot that reaches further below the "ground" than above it hangs from
+  // it (G1 fixed at its pelvis: legs 0.76 m down, head 0.43 m up); arms that hang a little
+  // below a pedestal's top at zero joint values do not make it so (RB-Y1's grippers, 0.19 m
+  // down, its torso 0.66 m up).
+  double lowest_link = 0.0, highest_link = 0.0;
+  for (const auto& [link, z] : tree.z_)
+    if (link != checker.root()) {
+      lowest_link = std::min(lowest_link, z);
+      highest_link = std::max(highest_link, z);
+    }
+  const auto stands_on = [&](double z) { return z - lowest_link <= std::max(highest_link - z, 1e-3); };
+  if (std::isnan(height) && !has_legs) {
+    // The default root, or the same link named (`--root base` where base is the default
+    // already: the same robot, the same height). Another root given by name may lie anywhere
+    // in the tree, its URDF root no cut-off link but a body above or below it.
+    UrdfImportOptions by_default = options;
+    by_default.root.clear();
+    const bool default_root = root == root_link(checker, urdf, by_default, source);
+    const bool cut_off = default_root && root != checker.root() && cut != tree.z_.end();
+    if (cut_off && cut->second < -1e-3)
+      height = -cut->second;
+    else if (cut_off && names_the_ground(checker.root()) && cut->second < 1e-3 && stands_on(cut->second))
+      height = std::max(0.0, -cut->second);
+    else if (root == checker.root() && names_the_ground(root) && stands_on(0.0))
+      height = 0.0;
+  }
+  if (std::isnan(height)) height = 1.0;
+  if (has_legs && !(height + pivot > 0.0))  // legs of no length level with the pivot (longer ones: above)
+    throw ParseError(source + ": the root height above the ground must be > 0 m (the legs' lowest link is not below the "
+                              "root: give the root height explicitly, or, if the root link's z axis is not up, its "
+                              "orientation with root_rpy, --root-rpy)");
+  return {height, pivot};
+}
+
 }  // namespace
 
 AddedFrame parse_added_frame(const std::string& text) {
@@ -915,139 +1061,7 @@ Model parse_urdf(const std::string& xml, const UrdfImportOptions& options, const
   const Matrix3 R_UR = rotation_from_rpy(rpy.x(), rpy.y(), rpy.z());
   TreeBuilder tree(*urdf, checker, options);
   tree.build(root, R_UR);
-  double height = options.root_height;
-  const bool has_legs = std::isfinite(tree.lowest_leg_z_);
-  if (!std::isnan(height) && !std::isfinite(height)) {
-    std::ostringstream msg;
-    msg << source << ": the root height (root_height, --root-height) must be finite, got " << height;
-    throw ParseError(msg.str());
-  }
-  // The upper body's pivot above the root link's origin: given, or the hips' height where the
-  // root link's origin lies at the feet, or 0.
-  double pivot = options.upper_body_pivot;
-  if (!std::isnan(pivot) && !(std::isfinite(pivot) && pivot >= 0.0 && pivot <= 0.5 * kMaxLength)) {
-    std::ostringstream msg;
-    msg << source << ": the upper body's pivot above the root link (upper_body_pivot, --upper-body-pivot) must be "
-        << "finite and >= 0 m, got " << pivot;
-    throw ParseError(msg.str());
-  }
-  if (std::isnan(pivot)) {
-    pivot = 0.0;
-    // A root link whose origin lies at the feet (Surena V's and Berkeley Humanoid Lite's CAD
-    // exports): the legs reach less than a tenth of their length below it, yet point down
-    // from their first links by at least half of it. The virtual dofs then end at the hips'
-    // height, so that the upper body crouches, leans and turns about its hips, not its soles.
-    // Roots turned without root_rpy are not taken for it: their legs run sideways or up.
-    // The feet must lie level with the root link's origin (within a tenth of the legs'
-    // length): frames above the root given as legs (a camera, an IMU: legs of no length)
-    // are not legs at the feet.
-    if (has_legs && std::abs(tree.lowest_leg_z_) < 0.1 * tree.leg_length_) {
-      double hips = -std::numeric_limits<double>::infinity();
-      for (const std::string& leg : options.legs)
-        if (const auto z = tree.z_.find(leg); z != tree.z_.end()) hips = std::max(hips, z->second);
-      if (hips > 0.0 && hips - tree.lowest_leg_z_ >= 0.5 * tree.leg_length_) pivot = hips;
-    }
-  }
-  // Given, the root height is the root link origin's, and the pivot must stand above the
-  // ground with legs, on it or above without: a root at the feet may lie a little below its
-  // soles (the export writes such a height with the pivot, and the import takes both back).
-  if (!std::isnan(height) && (has_legs ? !(height + pivot > 0.0) : height + pivot < 0.0)) {
-    std::ostringstream msg;
-    msg << source << ": the root height (root_height, --root-height) must be "
-        << (has_legs ? "> 0 m for a robot with legs (the upper body's pivot above the ground: root height + "
-                       "upper_body_pivot > 0)"
-                     : ">= 0 m (the upper body's pivot on the ground or above: root height + upper_body_pivot >= 0)")
-        << ", got " << height;
-    throw ParseError(msg.str());
-  }
-  if (std::isnan(height) && has_legs) {
-    // Measured from the legs: they must point down from the pivot (the root link's origin
-    // unless it lies at the feet), their lowest link (at zero joint values) at least a tenth
-    // of the legs' length below it.
-    // A root link turned upside down or on its side (root_rpy wrong or missing) leaves the
-    // legs level with the root or above it; such a "height" of millimetres (Poppy's root
-    // turned by roll 3.14159: 1.2e-8 m; by roll pi/2: 5 mm of its 0.39 m legs) was accepted
-    // before, and the robot stood on its head. Only a tenth: legs may splay or fold (random
-    // H1 variants: 0.57 m down with 2.0 m long legs), and a root turned by pitch pi/2 (legs
-    // forward, 0.07 of 0.39 m down on Poppy) is not told from such a robot (`wbm model info`
-    // notes legs that point more sideways than down: apps/model_notes.cpp).
-    const double depth = pivot - tree.lowest_leg_z_;
-    if (depth < 0.1 * tree.leg_length_) {
-      std::ostringstream msg;
-      msg << "leg link " << quoted(tree.lowest_leg_link_) << ", the legs' lowest at zero joint values, is ";
-      if (depth > 0.0)
-        msg << depth << " m below";
-      else
-        msg << "not below";
-      msg << (pivot > 0.0 ? " the upper body's pivot" : " the root link's origin")
-          << ", less than a tenth of the legs' length (" << tree.leg_length_
-          << " m from a leg's first link to its farthest): the legs do not point down. If the root link's z axis is "
-             "not up, give its orientation (root_rpy, --root-rpy); if its origin lies at the feet (as in some CAD "
-             "exports), choose a link at the hips or above as the root (root, --root)"
-          << tree.higher_root_links(0.1 * tree.leg_length_)
-          << " or give the upper body's pivot above it (upper_body_pivot, --upper-body-pivot)"
-          << "; if these are not the legs, name the first link of each (legs, --legs); or give the root height "
-             "(root_height, --root-height)";
-      checker.fail(checker.link_line(tree.lowest_leg_link_), msg.str());
-    }
-    // A pivot given far above the legs (5 m on G1) made a crouch range of metres, the legs
-    // deep in the ground in the home pose: at most twice the legs' length above their lowest.
-    if (depth > 2.0 * tree.leg_length_ && options.upper_body_pivot == pivot) {
-      std::ostringstream msg;
-      msg << source << ": the upper body's pivot (upper_body_pivot, --upper-body-pivot, " << pivot
-          << " m above the root link's origin) lies " << depth
-          << " m above the legs' lowest point, more than twice the legs' length (" << tree.leg_length_
-          << " m): the pivot is where the legs carry the upper body, at the hips or the pelvis";
-      throw ParseError(msg.str());
-    }
-    height = -tree.lowest_leg_z_;  // the root link origin's: below the ground where it lies under the soles
-  }
-  // No legs and no height given: a massless root link cut off below the root (a fixed-base
-  // robot's base_link or world on the ground, as Pepper's 0.33 m below its Tibia) is put on
-  // the ground, where the file and ROS tools have it. So is a link that names the ground
-  // ("world", or REP 120's "base_footprint"), at the root's origin or within a millimetre of
-  // it (a dual-arm robot's world link at its base), or the root itself (a world link carrying
-  // both arms' bases, as ABB's dual IRB120): height 0, so that the URDF's world frame is wbm's
-  // (`wbm model info` notes a turn or a horizontal shift of the world link, which the upright
-  // base does not keep). Not where the robot reaches below that link: a humanoid fixed to the
-  // world at its pelvis (its legs below the "ground") keeps the default. Otherwise (REP 120's
-  // massless base_link at a humanoid's pelvis, as NAO's and Romeo's without legs given; a
-  // world link above the root) 1 m.
-  // (A floating joint from the world link cuts the tree there: the link is not visited.)
-  const auto cut = tree.z_.find(checker.root());
-  const auto names_the_ground = [](const std::string& link) { return link == "world" || link == "base_footprint"; };
-  // The tree's extent below and above a height z (link origins at zero joint values, relative
-  // to the root's): a robot that reaches further below the "ground" than above it hangs from
-  // it (G1 fixed at its pelvis: legs 0.76 m down, head 0.43 m up); arms that hang a little
-  // below a pedestal's top at zero joint values do not make it so (RB-Y1's grippers, 0.19 m
-  // down, its torso 0.66 m up).
-  double lowest_link = 0.0, highest_link = 0.0;
-  for (const auto& [link, z] : tree.z_)
-    if (link != checker.root()) {
-      lowest_link = std::min(lowest_link, z);
-      highest_link = std::max(highest_link, z);
-    }
-  const auto stands_on = [&](double z) { return z - lowest_link <= std::max(highest_link - z, 1e-3); };
-  if (std::isnan(height) && !has_legs) {
-    // The default root, or the same link named (`--root base` where base is the default
-    // already: the same robot, the same height). Another root given by name may lie anywhere
-    // in the tree, its URDF root no cut-off link but a body above or below it.
-    UrdfImportOptions by_default = options;
-    by_default.root.clear();
-    const bool default_root = root == root_link(checker, *urdf, by_default, source);
-    const bool cut_off = default_root && root != checker.root() && cut != tree.z_.end();
-    if (cut_off && cut->second < -1e-3)
-      height = -cut->second;
-    else if (cut_off && names_the_ground(checker.root()) && cut->second < 1e-3 && stands_on(cut->second))
-      height = std::max(0.0, -cut->second);
-    else if (root == checker.root() && names_the_ground(root) && stands_on(0.0))
-      height = 0.0;
-  }
-  if (std::isnan(height)) height = 1.0;
-  if (has_legs && !(height + pivot > 0.0))  // legs of no length level with the pivot (longer ones: above)
-    throw ParseError(source + ": the root height above the ground must be > 0 m (the legs' lowest link is not below the "
-                              "root: give the root height explicitly, or, if the root link's z axis is not up, its "
-                              "orientation with root_rpy, --root-rpy)");
+  const auto [height, pivot] = place_root(checker, tree, *urdf, options, root, source);
   check_virtual_names(checker, tree, height + pivot);
   std::array<Dof, 9> virtual_dofs = default_virtual_dofs(height + pivot);
   set_upper_body_range(virtual_dofs[3], options.upper_body_x_range, "upper_body_x_range", source);

@@ -136,22 +136,14 @@ ShippedModel model_from_environment() {
   try {
     const wbm::Model model = m.load();
     what = "--hands (WBM_TEST_HANDS): ";
-    std::vector<std::set<int>> arm_joints;  // the robot's joints that move each hand
-    for (const std::string& hand : {m.left_hand, m.right_hand}) {
-      std::set<int>& joints = arm_joints.emplace_back();
-      for (const int b : model.moving_bodies(model.frame(model.frame_index(hand)).body))
-        if (model.dof(model.body(b).dof).role == wbm::DofRole::kJoint) joints.insert(b);
-      if (joints.empty())
+    for (const std::string& hand : {m.left_hand, m.right_hand})
+      if (joints_moving(model, hand).empty())
         environment_error(what + "no joint of the robot moves frame '" + hand +
                           "' (it is welded to the root link, or lies in a locked leg, --legs)");
-    }
     // Two frames of one arm (every joint that moves one also moves the other): the tests
     // need a hand on each arm; with one arm the identities and the convergence fail for
     // reasons of the choice, not of the model.
-    auto within = [](const std::set<int>& a, const std::set<int>& b) {
-      return std::includes(b.begin(), b.end(), a.begin(), a.end());
-    };
-    if (within(arm_joints[0], arm_joints[1]) || within(arm_joints[1], arm_joints[0]))
+    if (on_one_arm(model, m.left_hand, m.right_hand))
       environment_error(what + "'" + m.left_hand + "' and '" + m.right_hand +
                         "' are on one arm (every joint that moves one moves the other): name a frame on each arm");
     what = "--head (WBM_TEST_HEAD): ";
@@ -271,6 +263,19 @@ std::vector<ShippedModel> import_variants() {
     variants.push_back(m);
   }
   return variants;
+}
+
+std::set<int> joints_moving(const wbm::Model& model, const std::string& frame) {
+  std::set<int> joints;
+  for (const int b : model.moving_bodies(model.frame(model.frame_index(frame)).body))
+    if (model.dof(model.body(b).dof).role == wbm::DofRole::kJoint) joints.insert(model.body(b).dof);
+  return joints;
+}
+
+bool on_one_arm(const wbm::Model& model, const std::string& a, const std::string& b) {
+  const std::set<int> ja = joints_moving(model, a), jb = joints_moving(model, b);
+  return std::includes(jb.begin(), jb.end(), ja.begin(), ja.end()) ||
+         std::includes(ja.begin(), ja.end(), jb.begin(), jb.end());
 }
 
 ShippedModel import_variant(const std::string& id) {

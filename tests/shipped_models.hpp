@@ -7,6 +7,7 @@
 
 #include <optional>
 #include <ostream>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -75,6 +76,13 @@ std::vector<ShippedModel> import_variants();
 ShippedModel import_variant(const std::string& id);
 /// The entry with this id; throws std::out_of_range if there is none.
 const ShippedModel& shipped_model(const std::string& id);
+
+/// The robot's joints (dofs of role kJoint) that move frame `frame`; empty for a frame welded
+/// to the root link or in a locked leg. @throws wbm::ModelError for an unknown frame.
+std::set<int> joints_moving(const wbm::Model& model, const std::string& frame);
+/// True where every joint that moves one of the two frames also moves the other: two frames
+/// of one arm (or body), a singular choice of hands for the tests and benchmarks.
+bool on_one_arm(const wbm::Model& model, const std::string& a, const std::string& b);
 
 /// Absolute path of a file in the source tree, e.g. source_path("tests/data/x.urdf").
 inline std::string source_path(const std::string& relative) { return std::string(WBM_SOURCE_DIR) + "/" + relative; }
