@@ -337,15 +337,19 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
                                               feet);
   std::unique_ptr<WalkingModule> walking;
   if (s.walking.enabled) {
-    // Step widths not given: the defaults (for feet 0.18 m apart) scaled to this robot's
-    // feet, so that NAO (0.10 m) and H1 (0.41 m) can place their feet where they stand.
+    // Step widths, length and duration not given: the defaults (the paper model's) scaled
+    // to this robot's feet and height, so that NAO (feet 0.10 m apart, 0.34 m tall at the
+    // root) and H1 (0.41 m, 1.04 m) place their feet where they stand and step as far as
+    // their legs reach.
     WalkingParameters p = s.walking.parameters;
-    const WalkingParameters defaults;
-    const double scale = feet.spacing / FootGeometry{}.spacing;
-    if (!s.walking.min_width_given) p.min_step_width = defaults.min_step_width * scale;
-    if (!s.walking.max_width_given) p.max_step_width = defaults.max_step_width * scale;
     try {
+      const WalkingParameters scaled = scaled_walking_parameters(model, feet);
+      if (!s.walking.min_width_given) p.min_step_width = scaled.min_step_width;
+      if (!s.walking.max_width_given) p.max_step_width = scaled.max_step_width;
+      if (!s.walking.length_given) p.max_step_length = scaled.max_step_length;
+      if (!s.walking.duration_given) p.step_duration = scaled.step_duration;
       walking = std::make_unique<WalkingModule>(model, feet, p);
+      run->walking_parameters = p;
     } catch (const Error& e) {
       fail(s, s.walking.line, e.what());  // "FILE:LINE: walking: ..."
     }
@@ -612,6 +616,9 @@ json summarize(const ScenarioRun& run) {
     out["walking"] = {{"walks", walks}, {"footsteps", run.footsteps.size()},
                       {"final_real_heel", {h[0], h[1], h[2]}},
                       {"walking_at_end", h[3] > 0.0}};
+    const WalkingParameters& p = run.walking_parameters;
+    out["walking"]["steps"] = {{"max_step_length", p.max_step_length}, {"min_step_width", p.min_step_width},
+                               {"max_step_width", p.max_step_width}, {"step_duration", p.step_duration}};
   }
   if (!run.balance.empty()) {
     double min_margin = 1e300;

@@ -33,6 +33,7 @@ struct ScenarioRun {
   std::vector<Eigen::VectorXd> balance;  ///< com x, y, support centroid x, y, ub shift x, y, com margin (balance on)
   std::vector<Eigen::VectorXd> walking;  ///< real heel x, y, yaw, walking 0/1, walking flags (walking on)
   std::vector<Footstep> footsteps;
+  WalkingParameters walking_parameters;  ///< those the walk used (the file's, else scaled to the robot)
   FootGeometry feet;                     ///< the feet used for the support polygon
   std::vector<SupportPolygon> support;   ///< per cycle when balance or walking runs (empty otherwise)
   bool balance_on_at_end = false;        ///< balance was switched on in the last cycle (scenario or its events)

@@ -336,6 +336,8 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
       if (walking[key]) *slot = r.number(walking[key], std::string("walking.") + key);
     s.walking.min_width_given = static_cast<bool>(walking["min_step_width"]);
     s.walking.max_width_given = static_cast<bool>(walking["max_step_width"]);
+    s.walking.length_given = static_cast<bool>(walking["max_step_length"]);
+    s.walking.duration_given = static_cast<bool>(walking["step_duration"]);
     if (walking["max_steps"]) w.max_steps = static_cast<int>(r.positive(walking["max_steps"], "walking.max_steps"));
     if (walking["max_walks"]) w.max_walks = static_cast<int>(r.positive(walking["max_walks"], "walking.max_walks"));
   }

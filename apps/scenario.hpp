@@ -75,9 +75,9 @@ struct FeetSettings {
 struct WalkingSettings {
   bool enabled = false;
   WalkingParameters parameters;
-  /// min_step_width / max_step_width given in the file; if not, the runner scales the
-  /// defaults (0.14, 0.30 m for feet 0.18 m apart) to the robot's foot spacing.
-  bool min_width_given = false, max_width_given = false;
+  /// Which of the scaled fields the file gives; the others the runner takes from
+  /// scaled_walking_parameters (the defaults scaled to the robot's feet and height).
+  bool min_width_given = false, max_width_given = false, length_given = false, duration_given = false;
   int line = 0;
 };
 

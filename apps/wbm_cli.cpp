@@ -349,8 +349,13 @@ int run_scenarios(const std::vector<std::string>& files, const std::string& out,
     if (summary.contains("walking")) {
       const json& w = summary["walking"];
       const int walks = w["walks"].get<int>();
+      const json& steps = w["steps"];  // the step limits used: the file's, else scaled to the robot
+      std::ostringstream limits;
+      limits << std::fixed << std::setprecision(2) << " (steps up to " << steps["max_step_length"].get<double>()
+             << " m ahead, " << steps["min_step_width"].get<double>() << "-" << steps["max_step_width"].get<double>()
+             << " m wide, every " << steps["step_duration"].get<double>() << " s)";
       std::cout << "  walking: " << w["footsteps"].get<int>() << " footsteps in " << walks << (walks == 1 ? " walk" : " walks")
-                << (w["walking_at_end"].get<bool>() ? ", still walking at the end\n" : "\n");
+                << (w["walking_at_end"].get<bool>() ? ", still walking at the end" : "") << limits.str() << "\n";
     }
     std::cout << "  wrote " << dir << "/{trajectory.csv,summary.json" << (no_report ? "" : ",report.html") << "}\n";
   }

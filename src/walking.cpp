@@ -14,6 +14,21 @@ double wrap(double a) { return std::remainder(a, 2.0 * M_PI); }
 
 }  // namespace
 
+WalkingParameters scaled_walking_parameters(const Model& model, const FootGeometry& feet) {
+  const int ub_z = model.virtual_dofs().ub_z;
+  if (ub_z < 0) throw ConfigError("walking: model '" + model.name() + "' has no upper_body_z dof to scale the steps by");
+  WalkingParameters p;
+  const double width_scale = feet.spacing / FootGeometry{}.spacing;
+  p.min_step_width *= width_scale;
+  p.max_step_width *= width_scale;
+  const double height = model.dof(ub_z).upper;
+  if (std::isfinite(height) && height > 0.05) {
+    p.max_step_length *= height / kDefaultWalkingHeight;
+    p.step_duration *= std::sqrt(height / kDefaultWalkingHeight);
+  }
+  return p;
+}
+
 WalkingModule::WalkingModule(const Model& model, const FootGeometry& feet, const WalkingParameters& p)
     : feet_(feet), p_(p) {
   const VirtualDofs& v = model.virtual_dofs();

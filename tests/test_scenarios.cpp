@@ -512,15 +512,16 @@ const WalkingRobot kNarrowAndWideFeet[] = {{"nao", "l_gripper", "l_ankle", "r_an
                                            {"h1", "left_elbow_link", "left_ankle_link", "right_ankle_link"}};
 
 /// 16 s of walking: the robot's hand (element "hand") sent to `offset` [m] from where it is;
-/// `feet` gives the feet's size fields, `extra` more scenario lines.
+/// `feet` gives the feet's size fields, `extra` more scenario lines, `walking` more fields of
+/// the walking section (", max_step_length: 0.25").
 Scenario walk_scenario(const WalkingRobot& r, const std::string& feet, const std::string& offset,
-                       const std::string& extra = "") {
+                       const std::string& extra = "", const std::string& walking = "") {
   const wbm_test::ShippedModel& m = wbm_test::shipped_model(r.id);
   std::string legs;
   for (const std::string& leg : m.options.legs) legs += (legs.empty() ? "" : ", ") + leg;
   return parse_scenario(
       "name: walk\nrobot: {urdf: '" + m.path + "', legs: [" + legs + "]}\nduration: 16\n"
-      "frozen: [heel_x, heel_y, heel_yaw]\nwalking: {enabled: true}\n" + extra + "feet: {" + feet +
+      "frozen: [heel_x, heel_y, heel_yaw]\nwalking: {enabled: true" + walking + "}\n" + extra + "feet: {" + feet +
           "left_frame: " + r.left_foot + ", right_frame: " + r.right_foot + "}\n"
           "tasks: [{name: hand, type: position, frame: " + r.hand + ", filter: {bandwidth: 3, max_speed: 0.4}}]\n"
           "timeline: [{t: 0.2, activate: [hand], relative_targets: {hand: [" + offset + "]}}]\n",
@@ -534,6 +535,70 @@ TEST(Walking, RobotsWithNarrowAndWideFeetFinishTheirWalk) {
     EXPECT_EQ(final_walking(*run)[3], 0.0) << r.id << ": still walking after " << run->footsteps.size() << " steps";
     EXPECT_LT(run->error.back()[run->element("hand")], 1e-3) << r.id;
   }
+}
+
+// The walking defaults are the paper model's (upper body 0.6 m up, feet 0.18 m apart):
+// scaled to a robot's height and feet, NAO (0.34 m at its root) no longer takes the paper
+// model's 0.25 m strides. The paper model keeps the defaults exactly; a base on the ground
+// (root height 0) keeps the length and duration.
+TEST(Walking, TheDefaultsScaleToTheRobotsHeightAndFeet) {
+  const WalkingParameters defaults;
+  const WalkingParameters paper = scaled_walking_parameters(make_paper_model(), FootGeometry{});
+  EXPECT_EQ(paper.max_step_length, defaults.max_step_length);
+  EXPECT_EQ(paper.step_duration, defaults.step_duration);
+  EXPECT_EQ(paper.min_step_width, defaults.min_step_width);
+  EXPECT_EQ(paper.max_step_width, defaults.max_step_width);
+  for (const char* id : {"nao", "h1", "g1_29dof"}) {
+    const Model model = wbm_test::shipped_model(id).load();
+    const double height = model.dof(model.virtual_dofs().ub_z).upper;
+    FootGeometry feet;
+    feet.spacing = 0.5 * height;
+    const WalkingParameters p = scaled_walking_parameters(model, feet);
+    EXPECT_NEAR(p.max_step_length, 0.25 * height / 0.6, 1e-12) << id;
+    EXPECT_NEAR(p.step_duration, 0.6 * std::sqrt(height / 0.6), 1e-12) << id;
+    EXPECT_NEAR(p.min_step_width, 0.14 * feet.spacing / 0.18, 1e-12) << id;
+    EXPECT_NEAR(p.max_step_width, 0.30 * feet.spacing / 0.18, 1e-12) << id;
+    EXPECT_NO_THROW(WalkingModule(model, feet, p)) << id;
+  }
+  const wbm_test::ShippedModel& dual_arm = wbm_test::shipped_model("dual_arm");
+  const Model on_the_ground = dual_arm.load();
+  ASSERT_EQ(on_the_ground.dof(on_the_ground.virtual_dofs().ub_z).upper, 0.0);
+  const WalkingParameters ground = scaled_walking_parameters(on_the_ground, FootGeometry{});
+  EXPECT_EQ(ground.max_step_length, defaults.max_step_length);
+  EXPECT_EQ(ground.step_duration, defaults.step_duration);
+}
+
+// A scenario that does not give the step length and duration walks with the scaled ones
+// (NAO: at most 0.14 m ahead of the support foot, a step every 0.45 s); given, they are kept.
+TEST(Walking, AScenarioWalksWithTheScaledStepsUnlessItGivesItsOwn) {
+  const WalkingRobot& nao = kNarrowAndWideFeet[0];
+  const Model model = wbm_test::shipped_model(nao.id).load();
+  const double height = model.dof(model.virtual_dofs().ub_z).upper;
+  ASSERT_NEAR(height, 0.336, 0.01);
+  // The largest step ahead of the support foot (the previous footstep, or the other foot
+  // standing beside the heel at the origin, facing along x) and the time between footsteps.
+  auto steps = [&](const ScenarioRun& run) {
+    double longest = run.footsteps.empty() ? 0.0 : run.footsteps[0].pose.position.x(), first_interval = 0.0;
+    for (size_t i = 1; i < run.footsteps.size(); ++i) {
+      const FootPose& support = run.footsteps[i - 1].pose;
+      const Vector2 d = run.footsteps[i].pose.position - support.position;
+      longest = std::max(longest, std::cos(support.yaw) * d.x() + std::sin(support.yaw) * d.y());
+      if (i == 2) first_interval = run.footsteps[i].time - run.footsteps[i - 1].time;
+    }
+    return std::make_pair(longest, first_interval);
+  };
+  const auto scaled = run_scenario(walk_scenario(nao, "length: 0.15, width: 0.07, ", "1.5, 0.4, 0.0"));
+  ASSERT_GE(scaled->footsteps.size(), 8u);
+  const auto [longest, interval] = steps(*scaled);
+  EXPECT_NEAR(longest, 0.25 * height / 0.6, 1e-9);
+  EXPECT_NEAR(interval, 0.6 * std::sqrt(height / 0.6), 1.5e-3);  // on the 1 ms grid
+  EXPECT_EQ(final_walking(*scaled)[3], 0.0);
+  EXPECT_LT(scaled->error.back()[scaled->element("hand")], 1e-3);
+  const auto given = run_scenario(walk_scenario(nao, "length: 0.15, width: 0.07, ", "1.5, 0.4, 0.0", "",
+                                                ", max_step_length: 0.25, step_duration: 0.6"));
+  const auto [given_longest, given_interval] = steps(*given);
+  EXPECT_NEAR(given_longest, 0.25, 1e-9);
+  EXPECT_NEAR(given_interval, 0.6, 1.5e-3);
 }
 
 // Walking with balance on: during a walk the upper body is balanced over the feet as

@@ -45,6 +45,20 @@ struct WalkingParameters {
   /// error to below 90 % of its value at the trigger counts as a walk without progress.
 };
 
+/// The height standing straight the WalkingParameters defaults are for [m]: the paper
+/// model's upper body (upper_body_z's upper limit), as its foot spacing is FootGeometry's.
+inline constexpr double kDefaultWalkingHeight = 0.6;
+
+/// The defaults, which are the paper model's (upper body 0.6 m above the ground, feet 0.18 m
+/// apart), scaled to a robot: the step widths by its feet's spacing (0.78 and 1.67 times it;
+/// NAO's feet stand 0.10 m apart, H1's 0.41 m), max_step_length by its upper body's height
+/// standing straight (upper_body_z's upper limit: 0.25 m per 0.6 m of height; NAO 0.14 m,
+/// H1 0.43 m) and step_duration by that height's square root (equal Froude numbers, so that
+/// a robot walks as the paper model would at its size: NAO 0.45 s, H1 0.79 s). A height
+/// that is not above 0.05 m (a base on the ground) keeps the default length and duration.
+/// @throws ConfigError if the model has no upper_body_z dof.
+WalkingParameters scaled_walking_parameters(const Model& model, const FootGeometry& feet);
+
 enum WalkingFlag : std::uint32_t {
   kWalkStanding = 0,
   kWalkTriggered = 1u << 0,   ///< Walking started this cycle.
