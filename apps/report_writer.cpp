@@ -28,7 +28,7 @@ double micrometres(double x) { return std::round(x * 1e6) / 1e6; }  // "/": the 
 
 /// One foot on the ground for the 3D view: its outline from `time` [s] on.
 json footprint(double time, bool left, const FootPose& pose, const FootGeometry& feet) {
-  const SupportPolygon outline = SupportPolygon::from_feet({pose}, feet);
+  const SupportPolygon outline = SupportPolygon::from_feet(std::span(&pose, 1), feet);
   json polygon = json::array();
   for (const Vector2& p : outline.vertices()) polygon.push_back(json::array({p.x(), p.y()}));
   return {{"t", time}, {"side", left ? "L" : "R"}, {"polygon", polygon}};

@@ -461,6 +461,7 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
     }
     if (walking) {
       walking_flags = walking->update(c, last_status, t_start, s.dt, cmd);
+      if (walking_flags & kFootstepLanded) run->footsteps.push_back(walking->last_footstep());
       support = walking->support();
     } else if (balance) {
       support = current_support();
@@ -480,7 +481,6 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
     record(k * s.dt, st.flags, std::chrono::duration<double, std::micro>(t1 - t0).count());
     if (tty && (k % 200 == 0 || k == steps)) progress_bar(k * s.dt, s.duration, k == steps);
   }
-  if (walking) run->footsteps = walking->footsteps();
   run->balance_on_at_end = balance_on;
   return run;
 }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
 
 #include "wbm/errors.hpp"
 
@@ -14,42 +15,50 @@ double cross(const Vector2& o, const Vector2& a, const Vector2& b) {
 
 }  // namespace
 
-SupportPolygon SupportPolygon::from_feet(const std::vector<FootPose>& feet, const FootGeometry& g) {
-  std::vector<Vector2> points;
+SupportPolygon SupportPolygon::from_feet(std::span<const FootPose> feet, const FootGeometry& g) {
+  if (feet.size() > static_cast<size_t>(kMaxFeet))
+    throw ConfigError("support polygon: " + std::to_string(feet.size()) + " feet, at most " +
+                      std::to_string(kMaxFeet));
+  std::array<Vector2, kMaxVertices> points;  // the corners, on the stack: no allocation in the cycle
+  int n = 0;
   for (const FootPose& f : feet) {
     const Eigen::Rotation2Dd R(f.yaw);
     for (const Vector2& corner : {Vector2(0.0, -0.5 * g.width), Vector2(g.length, -0.5 * g.width),
                                  Vector2(g.length, 0.5 * g.width), Vector2(0.0, 0.5 * g.width)})
-      points.push_back(f.position + R * corner);
+      points[n++] = f.position + R * corner;
   }
-  // Monotone chain convex hull, counter-clockwise.
-  std::sort(points.begin(), points.end(),
+  // Monotone chain convex hull, counter-clockwise: the lower chain, then the upper one from
+  // its last point (which may hold points of the lower chain until later ones pop them: at
+  // most 2 n points); the last point is the first again, dropped at the end.
+  std::sort(points.begin(), points.begin() + n,
             [](const Vector2& a, const Vector2& b) { return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y()); });
   SupportPolygon poly;
-  std::vector<Vector2>& hull = poly.vertices_;
-  if (points.size() < 3) return poly;
-  hull.resize(2 * points.size());
-  size_t k = 0;
-  for (size_t i = 0; i < points.size(); ++i) {
+  if (n < 3) return poly;
+  std::array<Vector2, 2 * kMaxVertices> hull;
+  int k = 0;
+  for (int i = 0; i < n; ++i) {
     while (k >= 2 && cross(hull[k - 2], hull[k - 1], points[i]) <= 0) --k;
     hull[k++] = points[i];
   }
-  for (size_t i = points.size() - 1, t = k + 1; i > 0; --i) {
+  for (int i = n - 1, t = k + 1; i > 0; --i) {
     while (k >= t && cross(hull[k - 2], hull[k - 1], points[i - 1]) <= 0) --k;
     hull[k++] = points[i - 1];
   }
-  hull.resize(k - 1);
+  poly.num_vertices_ = k - 1;
+  std::copy(hull.begin(), hull.begin() + poly.num_vertices_, poly.vertices_.begin());
   double area = 0.0;
   Vector2 c = Vector2::Zero();
-  for (size_t i = 0; i < hull.size(); ++i) {
-    const Vector2& a = hull[i];
-    const Vector2& b = hull[(i + 1) % hull.size()];
+  for (int i = 0; i < poly.num_vertices_; ++i) {
+    const Vector2& a = poly.vertices_[i];
+    const Vector2& b = poly.vertices_[(i + 1) % poly.num_vertices_];
     const double w = a.x() * b.y() - b.x() * a.y();
     area += w;
     c += w * (a + b);
   }
   poly.area_ = 0.5 * area;
-  poly.centroid_ = std::abs(area) > 1e-12 ? Vector2(c / (3.0 * area)) : (hull.empty() ? Vector2::Zero() : hull[0]);
+  poly.centroid_ = std::abs(area) > 1e-12 ? Vector2(c / (3.0 * area))
+                   : poly.num_vertices_ == 0 ? Vector2::Zero()
+                                             : poly.vertices_[0];
   return poly;
 }
 
@@ -58,17 +67,19 @@ FootPose standing_foot(bool left, const Vector2& heel, double heel_yaw, double s
 }
 
 SupportPolygon SupportPolygon::standing(const Vector2& heel, double heel_yaw, const FootGeometry& g) {
-  return from_feet({standing_foot(true, heel, heel_yaw, g.spacing), standing_foot(false, heel, heel_yaw, g.spacing)}, g);
+  const std::array<FootPose, 2> feet = {standing_foot(true, heel, heel_yaw, g.spacing),
+                                        standing_foot(false, heel, heel_yaw, g.spacing)};
+  return from_feet(feet, g);
 }
 
 double SupportPolygon::signed_distance(const Vector2& p) const {
-  if (vertices_.size() < 3) return -std::numeric_limits<double>::infinity();
+  if (num_vertices_ < 3) return -std::numeric_limits<double>::infinity();
   double inside = std::numeric_limits<double>::infinity();
   double outside = std::numeric_limits<double>::infinity();
   bool is_inside = true;
-  for (size_t i = 0; i < vertices_.size(); ++i) {
+  for (int i = 0; i < num_vertices_; ++i) {
     const Vector2& a = vertices_[i];
-    const Vector2& b = vertices_[(i + 1) % vertices_.size()];
+    const Vector2& b = vertices_[(i + 1) % num_vertices_];
     const Vector2 e = b - a;
     const double len = e.norm();
     if (len < 1e-15) continue;

@@ -1,6 +1,7 @@
 #include "wbm/walking.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <sstream>
 #include <string>
@@ -69,7 +70,10 @@ FootPose WalkingModule::real_heel() const {
   return {0.5 * (left_.position + right_.position), yaw};
 }
 
-SupportPolygon WalkingModule::support() const { return SupportPolygon::from_feet({left_, right_}, feet_); }
+SupportPolygon WalkingModule::support() const {
+  const std::array<FootPose, 2> feet = {left_, right_};
+  return SupportPolygon::from_feet(feet, feet_);
+}
 
 SupportPolygon WalkingModule::planned_support(const Eigen::VectorXd& q) const {
   if (q.size() != num_dofs_)
@@ -204,7 +208,9 @@ std::uint32_t WalkingModule::update_walk(const Controller& c, const ControllerSt
     const FootPose target = stance_target(next_left_, heel, yaw);
     if (!feet_at(heel, yaw)) {
       swing = limited_step(next_left_, support, target);
-      footsteps_.push_back({time, next_left_, swing});
+      last_footstep_ = {time, next_left_, swing};
+      ++num_footsteps_;
+      flags |= kFootstepLanded;
       ++steps_this_walk_;
       next_left_ = !next_left_;
     }

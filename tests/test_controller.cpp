@@ -24,6 +24,7 @@
 #include "wbm/tasks/joint_task.hpp"
 #include "wbm/tasks/position_task.hpp"
 #include "wbm/trajectory_filter.hpp"
+#include "wbm/walking.hpp"
 
 #include "fast_trig.hpp"  // internal (src/)
 
@@ -81,6 +82,48 @@ TEST(Controller, CycleAllocatesNothing) {
                                      static_cast<std::uint32_t>(kInvalidTarget)})
       EXPECT_NE(seen & flag, 0u) << id << ": flag " << flag << " never set";
   }
+}
+
+// Walking and balance in the loop, as a robot runs them (wbm run's order): the walking
+// module, the support polygons built in every cycle (the feet as they stand, the support
+// planned beside the floating heel) and the balance module allocate nothing either, through
+// a whole walk of the paper's section VI (an object 1.5 m ahead). The walking module kept a
+// log of every footstep and the polygons held their vertices on the heap: 2 allocations per
+// cycle and one per footstep.
+TEST(Controller, WalkingWithBalanceAllocatesNothing) {
+  const Model model = make_paper_model();
+  Controller c(model);
+  c.add_task(std::make_unique<PositionTask>(model, "l_hand", "l_hand_ref"), {3.0, 0.4, 2});
+  c.add_task(std::make_unique<AxisTask>(model, "l_grasp", "l_hand_ref"), {3.0, 0.8, 2});
+  c.reset(model.home());
+  Command cmd = c.make_command();
+  cmd.external_velocity = VectorXd::Zero(model.num_dofs());
+  cmd.task_active.setConstant(true);
+  cmd.targets << 1.5, 0.5, 0.75, 0.0, 0.0, 1.0;
+  const FootGeometry feet;
+  BalanceModule balance(model, std::make_unique<CenterOfMassCentering>(5.0, 0.0), feet);
+  WalkingModule walking(model, feet, scaled_walking_parameters(model, feet));
+  ControllerStatus last;
+  std::uint32_t seen = 0;
+  int landed = 0;
+  const double dt = 0.002;
+  wbm_test::AllocationCounter counter;
+  for (int k = 0; k < 7000; ++k) {
+    const std::uint32_t flags = walking.update(c, last, k * dt, dt, cmd);
+    seen |= flags;
+    landed += (flags & kFootstepLanded) != 0 ? 1 : 0;
+    const SupportPolygon support = walking.walking() ? walking.planned_support(c.q()) : walking.support();
+    balance.update(c.data(), support, dt, cmd);
+    last = c.update(cmd, dt);
+    ASSERT_TRUE(last.ok()) << k;
+  }
+  EXPECT_EQ(counter.count(), 0);
+  EXPECT_NE(seen & kWalkTriggered, 0u);
+  EXPECT_NE(seen & kWalkFinished, 0u);
+  EXPECT_FALSE(walking.walking());
+  EXPECT_GE(landed, 4);
+  EXPECT_EQ(landed, walking.num_footsteps());
+  EXPECT_LT((c.values().head<3>() - Vector3(1.5, 0.5, 0.75)).norm(), 1e-3);
 }
 
 /// A command that keeps the heel standing (its dofs frozen), and the base if it is fixed.

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <random>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -327,6 +328,50 @@ TEST(Balance, ZeroAreaSupportAndABadLawHaveDefinedResults) {
   // Signed distance: positive inside, negative outside.
   EXPECT_NEAR(feet.signed_distance(feet.centroid()), 0.11, 1e-12);
   EXPECT_LT(feet.signed_distance(Vector2(1.0, 0.0)), 0.0);
+}
+
+// The support polygon holds its vertices in the object (no allocation in the cycle): on
+// random feet (1 to kMaxFeet, seeded) it is the convex hull of the corners: counter-clockwise
+// and convex, its vertices corners, every corner inside or on it, its area the shoelace
+// formula's; more feet than it has room for are a ConfigError.
+TEST(Balance, SupportPolygonIsTheHullOfTheFeetCorners) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> position(-0.5, 0.5), angle(-M_PI, M_PI), size(0.01, 0.3);
+  for (int trial = 0; trial < 20000; ++trial) {
+    FootGeometry g;
+    g.length = size(rng);
+    g.width = size(rng);
+    std::vector<FootPose> feet(1 + trial % SupportPolygon::kMaxFeet);
+    for (FootPose& f : feet) f = {Vector2(position(rng), position(rng)), angle(rng)};
+    if (trial % 7 == 0) feet.back() = feet.front();  // coincident feet: repeated corners
+    const SupportPolygon poly = SupportPolygon::from_feet(feet, g);
+    std::vector<Vector2> corners;
+    for (const FootPose& f : feet)
+      for (const Vector2& c : {Vector2(0.0, -0.5 * g.width), Vector2(g.length, -0.5 * g.width),
+                               Vector2(g.length, 0.5 * g.width), Vector2(0.0, 0.5 * g.width)})
+        corners.push_back(f.position + Eigen::Rotation2Dd(f.yaw) * c);
+    const auto v = poly.vertices();
+    ASSERT_GE(v.size(), 4u) << "trial " << trial;
+    ASSERT_LE(v.size(), corners.size()) << "trial " << trial;
+    double area = 0.0;
+    for (size_t i = 0; i < v.size(); ++i) {
+      const Vector2 &a = v[i], &b = v[(i + 1) % v.size()], &c = v[(i + 2) % v.size()];
+      area += 0.5 * (a.x() * b.y() - b.x() * a.y());
+      EXPECT_GT((b - a).x() * (c - b).y() - (b - a).y() * (c - b).x(), 0.0) << "trial " << trial << ": not convex at " << i;
+      EXPECT_TRUE(std::any_of(corners.begin(), corners.end(), [&](const Vector2& k) { return (k - a).norm() == 0.0; }))
+          << "trial " << trial << ": vertex " << i << " is not a corner";
+    }
+    EXPECT_NEAR(poly.area(), area, 1e-12) << "trial " << trial;
+    for (const Vector2& k : corners) EXPECT_GE(poly.signed_distance(k), -1e-12) << "trial " << trial;
+    if (HasFailure()) break;
+  }
+  const std::vector<FootPose> too_many(SupportPolygon::kMaxFeet + 1);
+  try {
+    SupportPolygon::from_feet(too_many, FootGeometry{});
+    ADD_FAILURE() << "accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("support polygon: 5 feet, at most 4"), std::string::npos) << e.what();
+  }
 }
 
 const Eigen::VectorXd& final_walking(const ScenarioRun& r) { return r.walking.back(); }

@@ -7,7 +7,7 @@
 
 #include <array>
 #include <memory>
-#include <vector>
+#include <span>
 
 #include <Eigen/Core>
 
@@ -35,23 +35,30 @@ struct FootPose {
 /// across the heel's yaw [rad], with that yaw. Balance, walking and reports use it.
 FootPose standing_foot(bool left, const Vector2& heel, double heel_yaw, double spacing);
 
-/// Convex support polygon in the world x-y plane.
+/// Convex support polygon in the world x-y plane. Its vertices are stored in the object (at
+/// most kMaxVertices), so that building, copying and querying one never allocates: the
+/// walking module builds one in every cycle.
 class SupportPolygon {
  public:
+  static constexpr int kMaxFeet = 4;  ///< from_feet's limit
+  static constexpr int kMaxVertices = 4 * kMaxFeet;
+
   SupportPolygon() = default;
-  /// Convex hull of the foot rectangles.
-  static SupportPolygon from_feet(const std::vector<FootPose>& feet, const FootGeometry& geometry);
+  /// Convex hull of the foot rectangles. Never allocates.
+  /// @throws ConfigError for more than kMaxFeet feet.
+  static SupportPolygon from_feet(std::span<const FootPose> feet, const FootGeometry& geometry);
   /// Both feet side by side at a heel pose (x, y, yaw).
   static SupportPolygon standing(const Vector2& heel, double heel_yaw, const FootGeometry& geometry);
-  /// Counter-clockwise vertices.
-  const std::vector<Vector2>& vertices() const { return vertices_; }
+  /// Counter-clockwise vertices (none for an empty polygon).
+  std::span<const Vector2> vertices() const { return {vertices_.data(), static_cast<size_t>(num_vertices_)}; }
   double area() const { return area_; }
   Vector2 centroid() const { return centroid_; }
   /// Distance from p to the boundary, positive inside [m].
   double signed_distance(const Vector2& p) const;
 
  private:
-  std::vector<Vector2> vertices_;
+  std::array<Vector2, kMaxVertices> vertices_;
+  int num_vertices_ = 0;
   double area_ = 0.0;
   Vector2 centroid_ = Vector2::Zero();
 };

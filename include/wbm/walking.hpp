@@ -7,7 +7,6 @@
 /// frozen again. Like balance, it talks to the solver only through b_C.
 
 #include <cstdint>
-#include <vector>
 
 #include "wbm/balance.hpp"
 #include "wbm/controller.hpp"
@@ -66,6 +65,7 @@ enum WalkingFlag : std::uint32_t {
   kWalkFinished = 1u << 2,    ///< Heel frozen again this cycle.
   kStepLimitReached = 1u << 3,///< Walk ended by max_steps.
   kWalkGivenUp = 1u << 4,     ///< max_walks walks without progress: no more walking until the command changes.
+  kFootstepLanded = 1u << 5,  ///< A swing foot landed this cycle: last_footstep().
 };
 
 struct Footstep {
@@ -88,12 +88,18 @@ class WalkingModule {
   void target_changed();
 
   bool walking() const { return walking_; }
-  const std::vector<Footstep>& footsteps() const { return footsteps_; }
+  /// The footstep of the last update that returned kFootstepLanded (a default Footstep
+  /// before the first). The module keeps no log of them, so that no cycle allocates: collect
+  /// them on kFootstepLanded where you need the whole walk (wbm run's footsteps.csv).
+  const Footstep& last_footstep() const { return last_footstep_; }
+  /// Footsteps landed since construction.
+  int num_footsteps() const { return num_footsteps_; }
   FootPose left_foot() const { return left_; }
   FootPose right_foot() const { return right_; }
   /// The real heel: between the feet.
   FootPose real_heel() const;
   /// Support polygon of the feet (both feet; during a step the swing foot is on its way).
+  /// Never allocates, as planned_support.
   SupportPolygon support() const;
   /// Both feet standing beside the heel of configuration q (x, y, yaw of the heel dofs;
   /// during a walk the floating heel, where the plan puts the feet and the body goes): the
@@ -132,7 +138,8 @@ class WalkingModule {
   double step_timer_ = 0.0;
   bool next_left_ = true;
   FootPose left_, right_;
-  std::vector<Footstep> footsteps_;
+  Footstep last_footstep_;
+  int num_footsteps_ = 0;
 };
 
 }  // namespace wbm
