@@ -53,6 +53,7 @@
 #include "fixtures.hpp"
 #include "periodic_loop.hpp"
 #include "scaling.hpp"
+#include "walking_loop.hpp"
 #include "wbm/controller.hpp"
 #include "wbm/errors.hpp"
 #include "wbm/trajectory_filter.hpp"
@@ -559,6 +560,14 @@ void print_tables(const TableReporter& rep, const std::vector<FixtureSpec>& fixt
                 ratio(rep, evicted, alone).c_str());
   }
 
+  // A walking robot's loop (walking_loop.hpp): what the walking and balance modules add.
+  const std::string walk = "paper_walk/wbm/cycle_with_balance", modules = "paper_walk/wbm/walking_and_balance";
+  if (Result r; rep.get(walk, r) || rep.get(modules, r))
+    std::printf("\nWalking with balance (the paper model's walk of section VI, restarted when it has ended): the loop "
+                "(walking, support polygon, balance, controller) %s us; the walking and balance modules with the "
+                "support polygon alone %s us.\n",
+                cell(rep, walk).c_str(), cell(rep, modules).c_str());
+
   // Goals (informational; nothing fails on timing).
   struct Goal {
     const char* id;
@@ -802,6 +811,9 @@ int main(int argc, char** argv) {
           ->Unit(benchmark::kMicrosecond);
     }
   }
+  for (auto [name, part] : {std::pair{"paper_walk/wbm/cycle_with_balance", wbm_bench::WalkPart::kCycle},
+                            std::pair{"paper_walk/wbm/walking_and_balance", wbm_bench::WalkPart::kModules}})
+    benchmark::RegisterBenchmark(name, wbm_bench::bm_walk, part)->UseManualTime()->Unit(benchmark::kMicrosecond);
   for (bool varying : {false, true})
     benchmark::RegisterBenchmark(varying ? "filter/direction/varying_dt" : "filter/direction/fixed_dt",
                                  bm_direction_filter, varying)
