@@ -59,6 +59,7 @@ WalkingModule::WalkingModule(const Model& model, const FootGeometry& feet, const
   const Vector2 heel(model.home()[v.heel_x], model.home()[v.heel_y]);
   left_ = stance_target(true, heel, model.home()[v.heel_yaw]);
   right_ = stance_target(false, heel, model.home()[v.heel_yaw]);
+  update_support();
 }
 
 FootPose WalkingModule::stance_target(bool left, const Vector2& heel, double yaw) const {
@@ -70,9 +71,9 @@ FootPose WalkingModule::real_heel() const {
   return {0.5 * (left_.position + right_.position), yaw};
 }
 
-SupportPolygon WalkingModule::support() const {
+void WalkingModule::update_support() {
   const std::array<FootPose, 2> feet = {left_, right_};
-  return SupportPolygon::from_feet(feet, feet_);
+  support_ = SupportPolygon::from_feet(feet, feet_);
 }
 
 SupportPolygon WalkingModule::planned_support(const Eigen::VectorXd& q) const {
@@ -208,6 +209,7 @@ std::uint32_t WalkingModule::update_walk(const Controller& c, const ControllerSt
     const FootPose target = stance_target(next_left_, heel, yaw);
     if (!feet_at(heel, yaw)) {
       swing = limited_step(next_left_, support, target);
+      update_support();
       last_footstep_ = {time, next_left_, swing};
       ++num_footsteps_;
       flags |= kFootstepLanded;

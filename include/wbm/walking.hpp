@@ -99,14 +99,14 @@ class WalkingModule {
   /// The real heel: between the feet.
   FootPose real_heel() const;
   /// Support polygon of the feet (both feet; during a step the swing foot is on its way).
-  /// Never allocates, as planned_support.
-  SupportPolygon support() const;
+  /// Built when a foot lands, not on every call.
+  const SupportPolygon& support() const { return support_; }
   /// Both feet standing beside the heel of configuration q (x, y, yaw of the heel dofs;
   /// during a walk the floating heel, where the plan puts the feet and the body goes): the
   /// support to balance the upper body over while walking(). Balancing over support(), the
   /// feet left behind, fights the floating heel: walks then stepped in place for as long
   /// as they ran (docs/solver.md, "Walking").
-  /// @throws ConfigError if q does not have the model's num_dofs() entries.
+  /// Never allocates. @throws ConfigError if q does not have the model's num_dofs() entries.
   SupportPolygon planned_support(const Eigen::VectorXd& q) const;
 
  private:
@@ -120,6 +120,8 @@ class WalkingModule {
   /// this cycle while moving, their last rates, falling to zero at v_max / heel_stop_time.
   void brake_heel(const Controller& controller, bool was_free, double dt, Command& command);
   bool feet_at(const Vector2& heel, double yaw) const;
+  /// The support polygon of the feet as they stand now (after a landing).
+  void update_support();
 
   FootGeometry feet_;
   WalkingParameters p_;
@@ -138,6 +140,7 @@ class WalkingModule {
   double step_timer_ = 0.0;
   bool next_left_ = true;
   FootPose left_, right_;
+  SupportPolygon support_;  // of left_ and right_ (set_feet)
   Footstep last_footstep_;
   int num_footsteps_ = 0;
 };
