@@ -173,7 +173,7 @@ std::uint32_t WalkingModule::update_walk(const Controller& c, const ControllerSt
   } else {
     stall_timer_ += dt;
   }
-  const bool stalled = p_.stall_time > 0.0 && stall_timer_ > p_.stall_time;
+  bool stalled = p_.stall_time > 0.0 && stall_timer_ > p_.stall_time;
 
   if (!walking_) {
     set_heel_free(command, false);
@@ -192,6 +192,9 @@ std::uint32_t WalkingModule::update_walk(const Controller& c, const ControllerSt
     stall_timer_ = 0.0;
     best_error_ = error;
     error_at_trigger_ = error;
+    // A stall that triggered the walk is not one of the walk: it ended every walk that a
+    // stall alone started in the cycle it started (the heel never released, 0 footsteps).
+    stalled = false;
     flags |= kWalkTriggered;
   }
 

@@ -582,6 +582,23 @@ TEST(Walking, RobotsWithNarrowAndWideFeetFinishTheirWalk) {
   }
 }
 
+// A walk that a stalled error alone starts (no joint-limit or cost trigger) walks: the
+// stall that triggered it also ended it in the same cycle, before the heel was released
+// (0 footsteps in 3 walks, the hand 1.5 m short; Darwin-OP with balance, whose joint limits
+// and cost did not trigger first, stopped 0.5-0.9 m short of reachable targets).
+TEST(Walking, AStallAloneStartsAWalkThatMoves) {
+  const auto run = run_scenario(parse_scenario(
+      "name: w\nrobot: {builtin: paper}\nduration: 24\nfrozen: [heel_x, heel_y, heel_yaw]\n"
+      "walking: {enabled: true, cost_threshold: 0, trigger_on_joint_limit: false}\n"
+      "tasks: [{name: hand, type: position, frame: l_hand_ref, filter: {bandwidth: 3, max_speed: 0.4}}]\n"
+      "timeline: [{t: 0.2, activate: [hand], relative_targets: {hand: [1.92, 0, 0]}}]\n",
+      "w.yaml", "."));
+  EXPECT_EQ(walks(*run), 1);
+  EXPECT_GE(run->footsteps.size(), 5u);
+  EXPECT_EQ(final_walking(*run)[3], 0.0);
+  EXPECT_LT(run->error.back()[run->element("hand")], 1e-3);
+}
+
 // The walking defaults are the paper model's (upper body 0.6 m up, feet 0.18 m apart):
 // scaled to a robot's height and feet, NAO (0.34 m at its root) no longer takes the paper
 // model's 0.25 m strides. The paper model keeps the defaults exactly; a base on the ground
