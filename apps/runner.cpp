@@ -12,6 +12,7 @@
 #include <iostream>
 #include <map>
 #include <sstream>
+#include <tuple>
 
 #include <Eigen/SVD>
 
@@ -342,16 +343,27 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
     // root) and H1 (0.41 m, 1.04 m) place their feet where they stand and step as far as
     // their legs reach.
     WalkingParameters p = s.walking.parameters;
+    std::string scaled_fields;  // those not given, for an error: the user did not write them
     try {
       const WalkingParameters scaled = scaled_walking_parameters(model, feet);
-      if (!s.walking.min_width_given) p.min_step_width = scaled.min_step_width;
-      if (!s.walking.max_width_given) p.max_step_width = scaled.max_step_width;
-      if (!s.walking.length_given) p.max_step_length = scaled.max_step_length;
-      if (!s.walking.duration_given) p.step_duration = scaled.step_duration;
+      std::ostringstream text;
+      for (const auto& [given, name, from, to] :
+           {std::tuple{s.walking.min_width_given, "min_step_width", &scaled.min_step_width, &p.min_step_width},
+            std::tuple{s.walking.max_width_given, "max_step_width", &scaled.max_step_width, &p.max_step_width},
+            std::tuple{s.walking.length_given, "max_step_length", &scaled.max_step_length, &p.max_step_length},
+            std::tuple{s.walking.duration_given, "step_duration", &scaled.step_duration, &p.step_duration}}) {
+        if (given) continue;
+        *to = *from;
+        text << (text.tellp() > 0 ? ", " : "") << name << " " << *from;
+      }
+      scaled_fields = text.str();
       walking = std::make_unique<WalkingModule>(model, feet, p);
       run->walking_parameters = p;
     } catch (const Error& e) {
-      fail(s, s.walking.line, e.what());  // "FILE:LINE: walking: ..."
+      // "FILE:LINE: walking: ...", and the values the file did not give.
+      fail(s, s.walking.line,
+           std::string(e.what()) +
+               (scaled_fields.empty() ? "" : " (not given, scaled to the robot's feet and height: " + scaled_fields + ")"));
     }
   }
   auto current_support = [&]() {

@@ -319,7 +319,7 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
   if (const YAML::Node walking = root["walking"]) {
     WalkingParameters& w = s.walking.parameters;
     s.walking.line = r.line(walking);
-    r.only(walking, "walking", {"enabled", "trigger_on_joint_limit", "cost_threshold", "stall_time", "error_tolerance",
+    r.only(walking, "walking", {"enabled", "trigger_on_joint_limit", "cost_threshold", "stall_time", "error_tolerance", "trigger_time",
                                 "max_step_length", "max_step_width", "min_step_width", "max_step_turn", "step_duration",
                                 "converged_speed", "converge_time", "feet_tolerance", "max_steps", "max_walks",
                                 "heel_stop_time"});
@@ -328,6 +328,7 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
     if (walking["trigger_on_joint_limit"]) w.trigger_on_joint_limit = r.boolean(walking["trigger_on_joint_limit"], "walking.trigger_on_joint_limit");
     const std::vector<std::pair<const char*, double*>> numbers = {
         {"cost_threshold", &w.cost_threshold}, {"stall_time", &w.stall_time}, {"error_tolerance", &w.error_tolerance},
+        {"trigger_time", &w.trigger_time},
         {"max_step_length", &w.max_step_length}, {"max_step_width", &w.max_step_width},
         {"min_step_width", &w.min_step_width}, {"max_step_turn", &w.max_step_turn}, {"step_duration", &w.step_duration},
         {"converged_speed", &w.converged_speed}, {"converge_time", &w.converge_time}, {"feet_tolerance", &w.feet_tolerance},

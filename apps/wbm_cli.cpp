@@ -351,7 +351,7 @@ int run_scenarios(const std::vector<std::string>& files, const std::string& out,
       const int walks = w["walks"].get<int>();
       const json& steps = w["steps"];  // the step limits used: the file's, else scaled to the robot
       std::ostringstream limits;
-      limits << std::fixed << std::setprecision(2) << " (steps up to " << steps["max_step_length"].get<double>()
+      limits << std::fixed << std::setprecision(3) << " (steps up to " << steps["max_step_length"].get<double>()
              << " m ahead, " << steps["min_step_width"].get<double>() << "-" << steps["max_step_width"].get<double>()
              << " m wide, every " << steps["step_duration"].get<double>() << " s)";
       std::cout << "  walking: " << w["footsteps"].get<int>() << " footsteps in " << walks << (walks == 1 ? " walk" : " walks")

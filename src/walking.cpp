@@ -20,8 +20,11 @@ WalkingParameters scaled_walking_parameters(const Model& model, const FootGeomet
   if (ub_z < 0) throw ConfigError("walking: model '" + model.name() + "' has no upper_body_z dof to scale the steps by");
   WalkingParameters p;
   const double width_scale = feet.spacing / FootGeometry{}.spacing;
-  p.min_step_width *= width_scale;
   p.max_step_width *= width_scale;
+  // Not narrower than the feet (a tenth of their width between them), unless they stand
+  // closer: 0.78 x the spacing let Bioloid's, Darwin-OP's and NAO's feet land on each other
+  // in half their steps (0.044 m between the centre lines of feet 0.05 m wide).
+  p.min_step_width = std::min(feet.spacing, std::max(p.min_step_width * width_scale, 1.1 * feet.width));
   const double height = model.dof(ub_z).upper;
   if (std::isfinite(height) && height > 0.05) {
     p.max_step_length *= height / kDefaultWalkingHeight;
@@ -39,11 +42,16 @@ WalkingModule::WalkingModule(const Model& model, const FootGeometry& feet, const
   num_dofs_ = model.num_dofs();
   if (v.heel_x < 0 || v.heel_y < 0 || v.heel_yaw < 0)
     throw ConfigError("walking: model '" + model.name() + "' has no virtual heel dofs");
-  if (!(p.max_step_length > 0 && p.max_step_width > p.min_step_width && p.min_step_width >= 0 && p.max_step_turn > 0 &&
-        p.step_duration > 0 && p.converged_speed > 0 && p.converge_time >= 0 && p.feet_tolerance > 0 && p.max_steps > 0 &&
-        p.max_walks > 0 && p.trigger_time >= 0))
-    throw ConfigError("walking: step limits, durations, tolerances and counts must be positive "
-                      "(and max_step_width > min_step_width)");
+  if (!(p.max_step_length > 0 && p.min_step_width >= 0 && p.max_step_turn > 0 && p.step_duration > 0 &&
+        p.converged_speed > 0 && p.converge_time >= 0 && p.feet_tolerance > 0 && p.max_steps > 0 && p.max_walks > 0 &&
+        p.trigger_time >= 0))
+    throw ConfigError("walking: step limits, durations, tolerances and counts must be positive");
+  if (!(p.max_step_width > p.min_step_width)) {
+    std::ostringstream msg;
+    msg << "walking: max_step_width (" << p.max_step_width << " m) must be above min_step_width (" << p.min_step_width
+        << " m)";
+    throw ConfigError(msg.str());
+  }
   // The feet stand `spacing` apart beside the heel; a step width range without it would
   // never let the swing foot land there, and no walk would end but by max_steps.
   if (!(feet.spacing >= p.min_step_width && feet.spacing <= p.max_step_width)) {

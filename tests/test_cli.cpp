@@ -631,7 +631,7 @@ TEST(Cli, RunSaysHowBalanceAndWalkingEnded) {
   EXPECT_NE(r.out.substr(out, w - out).find(" cm OUTSIDE the feet at the end (the upper-body shift could not"),
             std::string::npos)
       << r.out;
-  EXPECT_NE(r.out.substr(w, o - w).find("  walking: 0 footsteps in 0 walks (steps up to 0.25 m ahead, 0.14-0.30 m wide, every 0.60 s)\n"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.substr(w, o - w).find("  walking: 0 footsteps in 0 walks (steps up to 0.250 m ahead, 0.140-0.300 m wide, every 0.600 s)\n"), std::string::npos) << r.out;
   EXPECT_EQ(r.out.substr(w, o - w).find("balance:"), std::string::npos) << r.out;
   const size_t l = r.out.find("scenario long");
   ASSERT_NE(l, std::string::npos) << r.out;
