@@ -630,7 +630,17 @@ json summarize(const ScenarioRun& run) {
                       {"walking_at_end", h[3] > 0.0}};
     const WalkingParameters& p = run.walking_parameters;
     out["walking"]["steps"] = {{"max_step_length", p.max_step_length}, {"min_step_width", p.min_step_width},
-                               {"max_step_width", p.max_step_width}, {"step_duration", p.step_duration}};
+                               {"max_step_width", p.max_step_width}, {"step_duration", p.step_duration},
+                               {"max_steps", p.max_steps}};
+    // Walks that max_steps ended, and how far the feet then stand from the body's heel (the
+    // heel dofs): a walk that ends so freezes the heel where the body went, and the feet
+    // stay behind it.
+    int at_step_limit = 0;
+    for (const Eigen::VectorXd& w : run.walking) at_step_limit += (static_cast<std::uint32_t>(w[4]) & kStepLimitReached) != 0;
+    const VirtualDofs& v = model.virtual_dofs();
+    const Eigen::VectorXd& q = run.q.back();
+    out["walking"]["walks_at_step_limit"] = at_step_limit;
+    out["walking"]["feet_from_body"] = std::hypot(h[0] - q[v.heel_x], h[1] - q[v.heel_y]);
   }
   if (!run.balance.empty()) {
     double min_margin = 1e300;
@@ -648,9 +658,13 @@ json summarize(const ScenarioRun& run) {
         const double reach = upper ? std::ceil((a.needed + 0.01) * 100.0) / 100.0 : std::floor((a.needed - 0.01) * 100.0) / 100.0;
         std::ostringstream range;
         range << "[" << (upper ? d.lower : reach) << ", " << (upper ? reach : d.upper) << "]";
-        const std::string remedy = run.scenario.urdf.empty()
-                                       ? "the built-in paper model's range is fixed"
-                                       : "widen robot." + dof + "_range for these feet, e.g. to " + range.str();
+        std::string remedy = run.scenario.urdf.empty()
+                                 ? "the built-in paper model's range is fixed"
+                                 : "widen robot." + dof + "_range for these feet, e.g. to " + range.str();
+        // Feet left behind by a walk that max_steps ended: no range makes up for that.
+        if (out.contains("walking") && out["walking"]["walks_at_step_limit"].get<int>() > 0 &&
+            out["walking"]["feet_from_body"].get<double>() > run.walking_parameters.feet_tolerance)
+          remedy = "a walk ended at max_steps and left the feet behind the body (see walking): raise walking.max_steps";
         at_limit.push_back({{"dof", dof}, {"cycles", a.cycles}, {"limit", upper ? d.upper : d.lower}, {"needed", a.needed},
                             {"remedy", remedy}});
       }

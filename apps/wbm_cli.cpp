@@ -356,6 +356,14 @@ int run_scenarios(const std::vector<std::string>& files, const std::string& out,
              << " m wide, every " << steps["step_duration"].get<double>() << " s)";
       std::cout << "  walking: " << w["footsteps"].get<int>() << " footsteps in " << walks << (walks == 1 ? " walk" : " walks")
                 << (w["walking_at_end"].get<bool>() ? ", still walking at the end" : "") << limits.str() << "\n";
+      if (const int at_limit = w["walks_at_step_limit"].get<int>(); at_limit > 0) {
+        std::ostringstream line;
+        line << std::fixed << std::setprecision(3) << "  walking: " << at_limit << (at_limit == 1 ? " walk" : " walks")
+             << " ended at max_steps (" << steps["max_steps"].get<int>() << " footsteps); the feet stand "
+             << w["feet_from_body"].get<double>()
+             << " m from the body's heel at the end: raise walking.max_steps for walks this long\n";
+        std::cout << line.str();
+      }
     }
     std::cout << "  wrote " << dir << "/{trajectory.csv,summary.json" << (no_report ? "" : ",report.html") << "}\n";
   }

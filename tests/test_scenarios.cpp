@@ -621,6 +621,25 @@ TEST(Walking, AStallAloneStartsAWalkThatMoves) {
   EXPECT_LT(run->error.back()[run->element("hand")], 1e-3);
 }
 
+// A walk that max_steps ends says so: the heel is frozen where the body went and the feet
+// stay behind it, which the summary gives (and the balance advice points to, instead of a
+// range to widen: Bioloid 2.6 m from its target was told to widen upper_body_y_range to
+// [-1.02, 0.08] for a 0.26 m robot).
+TEST(Walking, AWalkEndedByMaxStepsSaysSoAndHowFarTheFeetAreBehind) {
+  Scenario s = shipped("walk_object_ahead");
+  s.walking.parameters.max_steps = 3;
+  s.balance.enabled = true;
+  const auto run = run_scenario(s);
+  const nlohmann::json summary = summarize(*run);
+  EXPECT_GE(summary["walking"]["walks_at_step_limit"].get<int>(), 1) << summary["walking"].dump();
+  EXPECT_EQ(summary["walking"]["steps"]["max_steps"].get<int>(), 3);
+  EXPECT_GT(summary["walking"]["feet_from_body"].get<double>(), 0.1) << summary["walking"].dump();
+  const auto full = run_scenario(shipped("walk_object_ahead"));
+  const nlohmann::json ended = summarize(*full);
+  EXPECT_EQ(ended["walking"]["walks_at_step_limit"].get<int>(), 0);
+  EXPECT_LT(ended["walking"]["feet_from_body"].get<double>(), 0.02);
+}
+
 // The walking defaults are the paper model's (upper body 0.6 m up, feet 0.18 m apart):
 // scaled to a robot's height and feet, NAO (0.34 m at its root) no longer takes the paper
 // model's 0.25 m strides. The paper model keeps the defaults exactly; a base on the ground
