@@ -51,11 +51,13 @@ inline constexpr double kDefaultWalkingHeight = 0.6;
 /// The defaults, which are the paper model's (upper body 0.6 m above the ground, feet 0.18 m
 /// apart), scaled to a robot: the step widths by its feet's spacing (0.78 and 1.67 times it;
 /// NAO's feet stand 0.10 m apart, H1's 0.41 m; the smaller at least 1.1 times the feet's
-/// width, so that they do not land on each other, but not above the spacing), max_step_length by its upper body's height
-/// standing straight (upper_body_z's upper limit: 0.25 m per 0.6 m of height; NAO 0.14 m,
-/// H1 0.43 m) and step_duration by that height's square root (equal Froude numbers, so that
-/// a robot walks as the paper model would at its size: NAO 0.45 s, H1 0.79 s). A height
-/// that is not above 0.05 m (a base on the ground) keeps the default length and duration.
+/// width, so that they do not land on each other, but not above the spacing),
+/// max_step_length by its upper body's height standing straight (upper_body_z's upper
+/// limit: 0.25 m per 0.6 m of height; NAO 0.14 m, H1 0.43 m) and step_duration by that
+/// height's square root (equal Froude numbers, so that a robot walks as the paper model
+/// would at its size: NAO 0.45 s, H1 0.79 s; the URDF import scales the heel's speed limit
+/// alike). A height that is not above 0.05 m (a base on the ground) keeps the default
+/// length and duration.
 /// @throws ConfigError if the model has no upper_body_z dof.
 WalkingParameters scaled_walking_parameters(const Model& model, const FootGeometry& feet);
 
@@ -141,7 +143,7 @@ class WalkingModule {
   double step_timer_ = 0.0;
   bool next_left_ = true;
   FootPose left_, right_;
-  SupportPolygon support_;  // of left_ and right_ (set_feet)
+  SupportPolygon support_;  // of left_ and right_ (update_support)
   Footstep last_footstep_;
   int num_footsteps_ = 0;
 };
