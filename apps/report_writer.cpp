@@ -53,12 +53,24 @@ std::string render_report(const ScenarioRun& run) {
   for (int k : samples) time.push_back(run.time[k]);
   data["time"] = time;
 
-  // Robot: the links drawn are the bodies (the virtual heel/upper-body chain is drawn as one
-  // link from the heel) and the welded frames (URDF links folded into a body: locked legs,
-  // heads, sensors, hand points), each from the frame it hangs from (Frame::parent) or its
-  // body's origin. Node b is body b; the welded frames follow. Also the frames the tasks use
-  // and, on small models, every non-body frame, with their axes.
+  // Robot: the links drawn are the bodies and the welded frames (URDF links folded into a
+  // body: locked legs, heads, sensors, hand points), each from the frame it hangs from
+  // (Frame::parent) or its body's origin. Node b is body b; the welded frames follow. Also
+  // the frames the tasks use and, on small models, every non-body frame, with their axes.
+  // Of the virtual chain only the heel (a point on the floor) and the upper body are drawn:
+  // its inner bodies lie on the floor and in the air between them, and were drawn as a rod
+  // along x on the floor and a pole up to the pelvis. The upper body hangs from the heel by
+  // one link where that link stands for the legs (the built-in model; legs dropped), not
+  // where the legs are drawn (locked legs, or free leg joints).
   const int nb = model.num_bodies();
+  const VirtualDofs& chain = model.virtual_dofs();
+  std::vector<bool> hidden(nb, false);
+  for (int b = 0; b < nb; ++b) {
+    const int dof = model.body(b).dof;
+    const DofRole role = dof >= 0 ? model.dof(dof).role : DofRole::kJoint;
+    hidden[b] = role != DofRole::kJoint && role != DofRole::kHeelYaw && b != chain.upper_body;
+  }
+  const bool legs_as_one_link = s.urdf.empty() || s.urdf_options.leg_mode == LegMode::kDrop;
   std::vector<int> node_of_frame(model.num_frames()), welded;
   for (int f = 0; f < model.num_frames(); ++f) {
     const bool own = model.is_body_frame(f);
@@ -68,7 +80,9 @@ std::string render_report(const ScenarioRun& run) {
   json bodies = json::array();
   for (int b = 0; b < nb; ++b) {
     const int parent_frame = model.frame(model.frame_index(model.body(b).name)).parent;
-    const int parent = parent_frame >= 0 ? node_of_frame[parent_frame] : model.body(b).parent;
+    int parent = parent_frame >= 0 ? node_of_frame[parent_frame] : model.body(b).parent;
+    if (hidden[b] || (parent >= 0 && parent < nb && hidden[parent])) parent = -1;
+    if (b == chain.upper_body && chain.heel_body >= 0) parent = legs_as_one_link ? chain.heel_body : -1;
     bodies.push_back({{"name", model.body(b).name}, {"parent", parent}});
   }
   for (int f : welded) {
@@ -99,7 +113,7 @@ std::string render_report(const ScenarioRun& run) {
     forward_kinematics(model, d, run.q[k]);
     json bp = json::array(), fp = json::array(), fz = json::array();
     for (int b = 0; b < nb; ++b)
-      for (int i = 0; i < 3; ++i) bp.push_back(micrometres(d.X_WB[b].p[i]));
+      for (int i = 0; i < 3; ++i) bp.push_back(hidden[b] ? json(nullptr) : json(micrometres(d.X_WB[b].p[i])));
     for (int f : welded) {
       const Vector3 p = frame_position(model, d, f);
       for (int i = 0; i < 3; ++i) bp.push_back(micrometres(p[i]));
@@ -146,7 +160,13 @@ std::string render_report(const ScenarioRun& run) {
     json real = json::array();
     for (int k : samples) real.push_back(json::array({run.walking[k][0], run.walking[k][1], 0.0}));
     paths.push_back({{"name", "real heel (between the feet)"}, {"points", real}});
+    // The feet standing at the start (beside the real heel of the first cycle), then each
+    // footstep as it lands: without the first two, no feet were drawn until the first step.
     json prints = json::array();
+    const Vector2 heel(run.walking[0][0], run.walking[0][1]);
+    for (const bool left : {true, false})
+      prints.push_back(footprint(run.time.front(), left, standing_foot(left, heel, run.walking[0][2], run.feet.spacing),
+                                 run.feet));
     for (const Footstep& f : run.footsteps) prints.push_back(footprint(f.time, f.left, f.pose, run.feet));
     data["footprints"] = prints;
   }
@@ -214,7 +234,9 @@ std::string render_report(const ScenarioRun& run) {
     cond.push_back({{"label", s.tasks[e].name + " joints only"}, {"values", limb}});
   }
   if (!cond.empty())
-    plots.push_back({{"title", "Condition number of the weighted position Jacobian"}, {"unit", ""}, {"series", cond}});
+    plots.push_back({{"title", "Condition number of the weighted position Jacobian (rank below 3: gap)"},
+                     {"unit", ""},
+                     {"series", cond}});
   if (!run.walking.empty()) {
     plots.push_back({{"title", "Walking: floating heel (solver) and real heel (feet)"},
                      {"unit", "m, rad"},
@@ -271,6 +293,8 @@ std::string render_report(const ScenarioRun& run) {
     for (const json& a : b["shift_at_limit"])
       table.push_back({"balance: upper-body shift at its limit", describe_shift_at_limit(a, b["balanced_cycles"].get<int>())});
   }
+  if (summary.contains("walking"))
+    for (const std::string& line : describe_walking(summary["walking"])) table.push_back({"walking", line});
   for (const json& note : summary["model_notes"]) table.push_back({"note on the model", note});
   for (const json& note : summary["task_notes"]) table.push_back({"note on a task", note});
   if (summary.contains("cycle_time_us"))

@@ -197,7 +197,10 @@ double position_condition_number(const Model& model, const Data& data, int frame
   }
   const Eigen::JacobiSVD<Eigen::MatrixXd> svd(Jp);
   const Eigen::VectorXd sv = svd.singularValues();
-  return sv[2] > 0.0 ? sv[0] / sv[2] : std::numeric_limits<double>::infinity();
+  // Rank below 3 within rounding (sigma_min / sigma_max at 1e-12): infinite, not the 1e16 to
+  // 1e33 that rounding left of a zero singular value (a two-joint arm's position rows on a
+  // small robot), which flattened every other series of the report's plot.
+  return sv[2] > 1e-12 * sv[0] ? sv[0] / sv[2] : std::numeric_limits<double>::infinity();
 }
 
 std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& options) {
@@ -685,6 +688,27 @@ std::string describe_shift_at_limit(const json& entry, int balanced_cycles) {
        << " %); the centre of mass would have needed " << entry["needed"].get<double>() * 100.0
        << " cm: " << entry["remedy"].get<std::string>();
   return line.str();
+}
+
+std::vector<std::string> describe_walking(const json& w) {
+  const int walks = w["walks"].get<int>();
+  const json& steps = w["steps"];  // the step limits used: the file's, else scaled to the robot
+  std::ostringstream line;
+  line << std::fixed << std::setprecision(3) << w["footsteps"].get<int>() << " footsteps in " << walks
+       << (walks == 1 ? " walk" : " walks") << (w["walking_at_end"].get<bool>() ? ", still walking at the end" : "")
+       << " (steps up to " << steps["max_step_length"].get<double>() << " m ahead, "
+       << steps["min_step_width"].get<double>() << "-" << steps["max_step_width"].get<double>() << " m wide, every "
+       << steps["step_duration"].get<double>() << " s)";
+  std::vector<std::string> lines = {line.str()};
+  if (const int at_limit = w["walks_at_step_limit"].get<int>(); at_limit > 0) {
+    std::ostringstream limit;
+    limit << std::fixed << std::setprecision(3) << at_limit << (at_limit == 1 ? " walk" : " walks")
+          << " ended at max_steps (" << steps["max_steps"].get<int>() << " footsteps); the feet stand "
+          << w["feet_from_body"].get<double>()
+          << " m from the body's heel at the end: raise walking.max_steps for walks this long";
+    lines.push_back(limit.str());
+  }
+  return lines;
 }
 
 std::string describe_last_cycle(const json& at_end) {

@@ -89,13 +89,17 @@ std::string describe_shift_at_limit(const nlohmann::json& entry, int balanced_cy
 /// singularity, or a target out of reach); at a position limit: right_joint_2 (lower)", or
 /// "" when nothing held the last cycle.
 std::string describe_last_cycle(const nlohmann::json& at_end);
+/// summarize()'s "walking" in words: the footsteps and walks with the step limits used, and
+/// a second line when max_steps ended a walk (how far the feet then stand from the body).
+std::vector<std::string> describe_walking(const nlohmann::json& walking);
 
 /// Writes trajectory.csv, summary.json and report.html into `directory` (created if
 /// needed). Files are written to temporaries and renamed, so nothing half-written remains.
 void write_outputs(const ScenarioRun& run, const std::string& directory, bool report = true);
 
 /// Condition number of the 3-row position Jacobian of `frame`, weighted by W^-1/2
-/// (sigma_max / sigma_min), using all dofs or only the robot's joints (no virtual dofs).
+/// (sigma_max / sigma_min), using all dofs or only the robot's joints (no virtual dofs);
+/// infinity where sigma_min is not above 1e-12 sigma_max (rank below 3).
 double position_condition_number(const Model& model, const Data& data, int frame, bool joints_only);
 
 }  // namespace wbm

@@ -346,25 +346,8 @@ int run_scenarios(const std::vector<std::string>& files, const std::string& out,
       for (const json& a : summary["balance"]["shift_at_limit"])
         std::cout << "  balance: " << wbm::describe_shift_at_limit(a, summary["balance"]["balanced_cycles"].get<int>()) << "\n";
     }
-    if (summary.contains("walking")) {
-      const json& w = summary["walking"];
-      const int walks = w["walks"].get<int>();
-      const json& steps = w["steps"];  // the step limits used: the file's, else scaled to the robot
-      std::ostringstream limits;
-      limits << std::fixed << std::setprecision(3) << " (steps up to " << steps["max_step_length"].get<double>()
-             << " m ahead, " << steps["min_step_width"].get<double>() << "-" << steps["max_step_width"].get<double>()
-             << " m wide, every " << steps["step_duration"].get<double>() << " s)";
-      std::cout << "  walking: " << w["footsteps"].get<int>() << " footsteps in " << walks << (walks == 1 ? " walk" : " walks")
-                << (w["walking_at_end"].get<bool>() ? ", still walking at the end" : "") << limits.str() << "\n";
-      if (const int at_limit = w["walks_at_step_limit"].get<int>(); at_limit > 0) {
-        std::ostringstream line;
-        line << std::fixed << std::setprecision(3) << "  walking: " << at_limit << (at_limit == 1 ? " walk" : " walks")
-             << " ended at max_steps (" << steps["max_steps"].get<int>() << " footsteps); the feet stand "
-             << w["feet_from_body"].get<double>()
-             << " m from the body's heel at the end: raise walking.max_steps for walks this long\n";
-        std::cout << line.str();
-      }
-    }
+    if (summary.contains("walking"))
+      for (const std::string& line : wbm::describe_walking(summary["walking"])) std::cout << "  walking: " << line << "\n";
     std::cout << "  wrote " << dir << "/{trajectory.csv,summary.json" << (no_report ? "" : ",report.html") << "}\n";
   }
   return 0;

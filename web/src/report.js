@@ -45,7 +45,9 @@
  *
  * When the 3D view and every chart have been drawn once, window.wbmReady is
  * set to true (and window.wbmDrawingScale holds the scale of the drawn robot,
- * window.wbmPlotValueRanges() each chart's value axis as [min, max]). Errors are reported with console.error and shown on the page.
+ * window.wbmPlotValueRanges() each chart's value axis as [min, max],
+ * window.wbmBodiesOutOfView(k) how many body origins of sample k the camera's first
+ * framing leaves out). Errors are reported with console.error and shown on the page.
  */
 (function () {
   'use strict';
@@ -291,17 +293,29 @@
     return isNumber(row[3 * index]) && isNumber(row[3 * index + 1]) && isNumber(row[3 * index + 2]);
   }
 
-  // Bounding sphere (in robot coordinates) of the robot at sample 0.
-  function firstFrameBounds(data) {
+  // Bounding box (in robot coordinates) of the robot at sample k.
+  function robotBox(data, k) {
     const box = new THREE.Box3();
     const p = new THREE.Vector3();
     const addRow = (row, count) => {
       for (let i = 0; i < count; i++) if (rowIsFinite(row, i)) box.expandByPoint(vecAt(row, i, p));
     };
-    if (data.robot.bodies.length) addRow(data.body_pos[0], data.robot.bodies.length);
-    if (data.robot.frames.length) addRow(data.frame_pos[0], data.robot.frames.length);
+    if (data.robot.bodies.length) addRow(data.body_pos[k], data.robot.bodies.length);
+    if (data.robot.frames.length) addRow(data.frame_pos[k], data.robot.frames.length);
+    return box;
+  }
+
+  // The robot's box at sample 0 (it sets the drawing scale), and the bounding sphere of the
+  // robot over the whole run (the camera frames it): a robot that walks stays in view (a
+  // sphere of sample 0 alone let NAO and a 0.26 m robot walk out of it).
+  function robotBounds(data) {
+    const box = robotBox(data, 0);
     if (box.isEmpty()) box.set(new THREE.Vector3(-0.5, -0.5, 0), new THREE.Vector3(0.5, 0.5, 1));
-    const sphere = box.getBoundingSphere(new THREE.Sphere());
+    const all = box.clone();
+    const stride = Math.max(1, Math.floor(data.time.length / 200));
+    for (let k = stride; k < data.time.length; k += stride) all.union(robotBox(data, k));
+    all.union(robotBox(data, data.time.length - 1));
+    const sphere = all.getBoundingSphere(new THREE.Sphere());
     sphere.radius = Math.max(sphere.radius, 0.3);
     return { box, sphere };
   }
@@ -532,7 +546,7 @@
     scene.add(world);
     world.updateMatrixWorld();
 
-    const { box, sphere } = firstFrameBounds(data);
+    const { box, sphere } = robotBounds(data);
     const scale = drawingScale(box);
     window.wbmDrawingScale = scale;  // for tests (web/test/check_report.mjs --expect-scale)
     const extent = floorExtent(data, box);
@@ -580,6 +594,20 @@
 
     setSize();
     frameRobot();
+    // For tests (web/test/check_report.mjs): how many drawn body origins of sample k lie
+    // outside the camera's view as the page framed it.
+    window.wbmBodiesOutOfView = (k) => {
+      camera.updateMatrixWorld();
+      const frustum = new THREE.Frustum().setFromProjectionMatrix(
+        new THREE.Matrix4().multiplyMatrices(camera.projectionMatrix, camera.matrixWorldInverse));
+      const p = new THREE.Vector3();
+      let out = 0;
+      for (let i = 0; i < data.robot.bodies.length; i++) {
+        if (!rowIsFinite(data.body_pos[k], i)) continue;
+        if (!frustum.containsPoint(vecAt(data.body_pos[k], i, p).applyMatrix4(world.matrixWorld))) out++;
+      }
+      return out;
+    };
     controls.addEventListener('change', render);
     renderer.domElement.addEventListener('dblclick', () => {
       frameRobot();

@@ -8,7 +8,8 @@
 // view; fewer drawn uPlot charts than plots in the data (exactly K with
 // --expect-plots); a value axis that does not hold its plot's values, or that
 // spreads a flat plot over more than max(2, 4 |value|); a 3D image that does
-// not change when the time slider moves to the end; with --expect-scale, a scale of the drawn robot (links, spheres,
+// not change when the time slider moves to the end; a body origin out of the 3D view at the
+// first, middle or last sample; with --expect-scale, a scale of the drawn robot (links, spheres,
 // arrows: window.wbmDrawingScale) outside [MIN, MAX]. The screenshot (full page)
 // is taken with the slider at the middle.
 
@@ -257,6 +258,17 @@ try {
       return [typeof scale === 'number' && scale >= min && scale <= max, `${scale} (expected ${min} to ${max})`];
     });
   }
+
+  await runCheck('the robot stays in view', async () => {
+    // The camera frames the robot over the whole run: a walking robot does not leave it.
+    const n = await page.evaluate(() => JSON.parse(document.getElementById('wbm-data').textContent).time.length);
+    const out = [];
+    for (const k of [0, Math.floor(n / 2), n - 1]) {
+      const count = await page.evaluate((i) => window.wbmBodiesOutOfView(i), k);
+      if (count > 0) out.push(`${count} body origins out of view at sample ${k}`);
+    }
+    return [out.length === 0, out.length ? out.join('; ') : 'every body origin in view at the first, middle and last sample'];
+  });
 
   await runCheck('time slider changes the 3D view', async () => {
     const value = await page.evaluate(moveSlider, 'end');
