@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <set>
 
 #include <nlohmann/json.hpp>
@@ -205,18 +206,26 @@ std::string render_report(const ScenarioRun& run) {
                    {"unit", prismatic_joints ? "rad, m" : "rad"},
                    {"series", joints}});
   if (!virtual_dofs.empty()) plots.push_back({{"title", "Heel and upper-body dofs"}, {"unit", "m, rad"}, {"series", virtual_dofs}});
-  json errors = json::array();
+  // Task errors, one plot per unit in the order the units first appear: on one axis, a grasp
+  // axis's 19 degrees were invisible beside a hand's 1,034 mm.
+  std::vector<std::pair<std::string, json>> errors;  // unit, series
   bool any_active = false;  // a scenario that never switches an element on has no errors to plot
   for (int k : samples)
     for (int e = 0; e < stack.num_elements(); ++e) any_active = any_active || run.active[k][e] > 0.0;
   for (int e = 0; e < stack.num_elements() && any_active; ++e) {
     const double scale = error_scale(s.tasks[e]);
-    errors.push_back(series(s.tasks[e].name + " [" + error_unit(model, s.tasks[e]) + "]", [&](int k) {
+    const std::string unit = error_unit(model, s.tasks[e]);
+    auto group = std::find_if(errors.begin(), errors.end(), [&](const auto& g) { return g.first == unit; });
+    if (group == errors.end()) group = errors.insert(errors.end(), {unit, json::array()});
+    group->second.push_back(series(s.tasks[e].name + " [" + unit + "]", [&](int k) {
       return run.active[k][e] > 0.0 ? scale * run.error[k][e] : std::nan("");
     }));
   }
-  if (any_active)
-    plots.push_back({{"title", "Task errors to the commanded targets (inactive: gap)"}, {"unit", "mm / deg"}, {"series", errors}});
+  for (const auto& [unit, group] : errors)
+    plots.push_back({{"title", "Task errors to the commanded targets" +
+                                   (errors.size() > 1 ? " [" + unit + "]" : std::string()) + " (inactive: gap)"},
+                     {"unit", unit},
+                     {"series", group}});
   plots.push_back({{"title", "Null-space cost H(q)"},
                    {"unit", ""},
                    {"series", json::array({series("H", [&](int k) { return run.cost[k]; })})}});
@@ -271,17 +280,26 @@ std::string render_report(const ScenarioRun& run) {
                     e["max_tracking_error"].get<double>(), unit.c_str());
     table.push_back({name, text});
   }
-  table.push_back({"max joint speed / limit", std::to_string(summary["max_joint_speed"]["ratio_to_limit"].get<double>()) +
-                                                  " (" + summary["max_joint_speed"]["dof"].get<std::string>() + ")"});
+  auto number = [](double value, const char* unit = "") {  // three digits, not to_string's six decimals
+    char text[64];
+    std::snprintf(text, sizeof text, "%.3g%s", value, unit);
+    return std::string(text);
+  };
+  table.push_back({"max joint speed / limit", number(summary["max_joint_speed"]["ratio_to_limit"].get<double>()) + " (" +
+                                                  summary["max_joint_speed"]["dof"].get<std::string>() + ")"});
   if (summary.contains("max_joint_acceleration_to_bound"))
     table.push_back({"max joint acceleration / bound k v_max",
-                     std::to_string(summary["max_joint_acceleration_to_bound"]["ratio"].get<double>()) + " (" +
+                     number(summary["max_joint_acceleration_to_bound"]["ratio"].get<double>()) + " (" +
                          summary["max_joint_acceleration_to_bound"]["dof"].get<std::string>() + ")"});
-  table.push_back({"min distance to a joint limit",
-                   summary.contains("min_distance_to_limit")
-                       ? std::to_string(summary["min_distance_to_limit"]["value"].get<double>()) + " (" +
-                             summary["min_distance_to_limit"]["dof"].get<std::string>() + ")"
-                       : std::string("none: no joint has position limits")});
+  if (summary.contains("min_distance_to_limit")) {
+    const std::string dof = summary["min_distance_to_limit"]["dof"];
+    const bool prismatic = model.dof(model.dof_index(dof)).type == JointType::kPrismatic;
+    table.push_back({"min distance to a joint limit",
+                     number(summary["min_distance_to_limit"]["value"].get<double>(), prismatic ? " m" : " rad") + " (" +
+                         dof + ")"});
+  } else {
+    table.push_back({"min distance to a joint limit", "none: no joint has position limits"});
+  }
   if (const std::string held = describe_last_cycle(summary["at_end"]); !held.empty())
     table.push_back({"last cycle", held});
   if (summary.contains("balance")) {
@@ -298,8 +316,8 @@ std::string render_report(const ScenarioRun& run) {
   for (const json& note : summary["model_notes"]) table.push_back({"note on the model", note});
   for (const json& note : summary["task_notes"]) table.push_back({"note on a task", note});
   if (summary.contains("cycle_time_us"))
-    table.push_back({"cycle time median / p99 [us]", std::to_string(summary["cycle_time_us"]["median"].get<double>()) + " / " +
-                                                         std::to_string(summary["cycle_time_us"]["p99"].get<double>())});
+    table.push_back({"cycle time median / p99 [us]", number(summary["cycle_time_us"]["median"].get<double>()) + " / " +
+                                                         number(summary["cycle_time_us"]["p99"].get<double>())});
   data["summary"] = table;
 
   std::string text = data.dump();

@@ -429,6 +429,13 @@ TEST(Walking, ObjectAheadWalksStopsAndGrasps) {
     EXPECT_NEAR(0.5 * (y0 + y2), (i == 0 ? 0.5 : -0.5) * feet.spacing, 1e-12);  // beside the heel at the origin
   }
   EXPECT_EQ(prints[2]["t"].get<double>(), run->footsteps.front().time);
+  // The hand's error in mm and the grasp axis's in degrees are plotted apart (on one axis the
+  // degrees were invisible beside the millimetres).
+  std::vector<std::string> error_units;
+  const nlohmann::json report = report_data(*run);
+  for (const auto& plot : report["plots"])
+    if (plot["title"].get<std::string>().rfind("Task errors", 0) == 0) error_units.push_back(plot["unit"]);
+  EXPECT_EQ(error_units, (std::vector<std::string>{"mm", "deg"}));
 }
 
 TEST(Walking, ObjectBehindTurnsAndWalks) {
@@ -914,6 +921,13 @@ TEST(Scenarios, NoPositionLimitsNoDistanceToALimit) {
   ASSERT_TRUE(summary.contains("min_distance_to_limit"));
   EXPECT_EQ(summary["min_distance_to_limit"]["dof"], "shoulder");
   EXPECT_NEAR(summary["min_distance_to_limit"]["value"].get<double>(), 2.5, 0.1);
+  // The report's row has the unit and three digits ("2.5 rad (shoulder)", not "2.500000").
+  const nlohmann::json limited_report = report_data(*limited);
+  for (const auto& row : limited_report["summary"]) {
+    if (row[0] == "min distance to a joint limit") {
+      EXPECT_NE(row[1].get<std::string>().find(" rad (shoulder)"), std::string::npos) << row[1];
+    }
+  }
 }
 
 // A gripper's joint task while the arm is stretched towards a target out of reach: the
