@@ -8,6 +8,7 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <set>
 #include <random>
 #include <sstream>
 #include <string>
@@ -1134,6 +1135,12 @@ TEST(Scenarios, ReportDrawsEveryLinkFromTheLinkItHangsFrom) {
                                                  "root: " + root + ", legs: [leg], root_height: 0.7",
                                                  root == "tool" ? "base" : "tool"));
     node = expect_report_draws_every_link(*run);
+    // Its few frames are drawn with their axes, but not those of the locked leg.
+    const nlohmann::json frames = report_data(*run)["robot"]["frames"];
+    std::set<std::string> drawn;
+    for (const auto& f : frames) drawn.insert(f["name"].get<std::string>());
+    EXPECT_TRUE(drawn.count("mount")) << frames.dump();
+    EXPECT_FALSE(drawn.count("leg") || drawn.count("foot")) << frames.dump();
     const nlohmann::json synthetic = report_data(*run)["robot"]["bodies"];
     if (root == "base") {
       EXPECT_EQ(synthetic[node["link_c"]]["parent"], node["mount"]);
