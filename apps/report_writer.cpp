@@ -290,7 +290,7 @@ std::string render_report(const ScenarioRun& run) {
   }
   auto number = [](double value, const char* unit = "") {  // three digits, not to_string's six decimals
     char text[64];
-    std::snprintf(text, sizeof text, "%.3g%s", value, unit);
+    std::snprintf(text, sizeof text, std::abs(value) >= 100.0 ? "%.0f%s" : "%.3g%s", value, unit);
     return std::string(text);
   };
   table.push_back({"max joint speed / limit", number(summary["max_joint_speed"]["ratio_to_limit"].get<double>()) + " (" +

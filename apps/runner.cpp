@@ -666,6 +666,7 @@ json summarize(const ScenarioRun& run) {
                                  : "widen robot." + dof + "_range for these feet, e.g. to " + range.str();
         // Feet left behind by a walk that max_steps ended: no range makes up for that.
         if (out.contains("walking") && out["walking"]["walks_at_step_limit"].get<int>() > 0 &&
+            !out["walking"]["walking_at_end"].get<bool>() &&
             out["walking"]["feet_from_body"].get<double>() > run.walking_parameters.feet_tolerance)
           remedy = "a walk ended at max_steps and left the feet behind the body (see walking): raise walking.max_steps";
         at_limit.push_back({{"dof", dof}, {"cycles", a.cycles}, {"limit", upper ? d.upper : d.lower}, {"needed", a.needed},

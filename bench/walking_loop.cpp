@@ -48,7 +48,10 @@ class WalkLoop {
   /// Walking and balance for the next cycle: the command's b_C and external velocities.
   void modules() {
     const std::uint32_t flags = walking_.update(controller_, last_, cycle_ * kWalkDt, kWalkDt, command_);
-    walks_ += (flags & wbm::kWalkFinished) != 0 ? 1 : 0;
+    if ((flags & wbm::kWalkFinished) != 0) {
+      ++walks_;
+      footsteps_in_walks_ = footsteps_ + walking_.num_footsteps();  // up to the end of this walk
+    }
     in_walk_ += walking_.walking() ? 1 : 0;
     const wbm::SupportPolygon support =
         walking_.walking() ? walking_.planned_support(controller_.q()) : walking_.support();
@@ -91,7 +94,8 @@ class WalkLoop {
 
   bool failed() const { return failed_; }
   long walks() const { return walks_; }
-  long footsteps() const { return footsteps_ + walking_.num_footsteps(); }
+  /// Footsteps of the walks that ended (not of one still going at the end of the run).
+  long footsteps_in_walks() const { return footsteps_in_walks_; }
   double walking_share() const { return cycles_ > 0 ? static_cast<double>(in_walk_) / static_cast<double>(cycles_) : 0.0; }
 
  private:
@@ -103,7 +107,7 @@ class WalkLoop {
   wbm::Command command_;
   wbm::ControllerStatus last_;
   int cycle_ = 0;
-  long cycles_ = 0, walks_ = 0, footsteps_ = 0, in_walk_ = 0;
+  long cycles_ = 0, walks_ = 0, footsteps_ = 0, footsteps_in_walks_ = 0, in_walk_ = 0;
   bool failed_ = false;
 };
 
@@ -142,7 +146,7 @@ void bm_walk(benchmark::State& state, WalkPart part) {
   if (loop.failed()) state.SkipWithError("the walking loop failed (an invalid command, or q not finite)");
   state.counters["walks"] = static_cast<double>(loop.walks());
   state.counters["footsteps_per_walk"] =
-      loop.walks() > 0 ? static_cast<double>(loop.footsteps()) / static_cast<double>(loop.walks()) : 0.0;
+      loop.walks() > 0 ? static_cast<double>(loop.footsteps_in_walks()) / static_cast<double>(loop.walks()) : 0.0;
   state.counters["walking_pct"] = 100.0 * loop.walking_share();
 }
 

@@ -353,8 +353,9 @@ std::array<Dof, 9> default_virtual_dofs(double height) {
   // 20 % of the standing height, and moderate trunk tilts.
   // The heel's speed, 0.5 m/s for the paper model's 0.6 m, scales with the square root of
   // the height, as walking's step length over its duration does (scaled_walking_parameters,
-  // equal Froude numbers): the floating heel of a small robot outran its feet (Bioloid,
-  // 0.26 m: 0.5 m/s against its feet's 0.28 m/s, the body 0.45 m beyond them).
+  // equal Froude numbers), so that the heel keeps the paper model's 1.2 times the feet's
+  // best pace at every size: at 0.5 m/s a 0.26 m robot's heel ran at 1.8 times its feet's
+  // 0.28 m/s and the body up to 0.45 m beyond them.
   const double heel_speed = height > 0.05 ? 0.5 * std::sqrt(height / 0.6) : 0.5;
   std::array<Dof, 9> d;
   d[0] = {"heel_x", JointType::kPrismatic, DofRole::kHeelX, false, -10.0, 10.0, heel_speed, 1.0};

@@ -17,7 +17,6 @@ double wrap(double a) { return std::remainder(a, 2.0 * M_PI); }
 
 WalkingParameters scaled_walking_parameters(const Model& model, const FootGeometry& feet) {
   const int ub_z = model.virtual_dofs().ub_z;
-  if (ub_z < 0) throw ConfigError("walking: model '" + model.name() + "' has no upper_body_z dof to scale the steps by");
   WalkingParameters p;
   const double width_scale = feet.spacing / FootGeometry{}.spacing;
   p.max_step_width *= width_scale;
@@ -25,7 +24,7 @@ WalkingParameters scaled_walking_parameters(const Model& model, const FootGeomet
   // closer: 0.78 x the spacing let Bioloid's, Darwin-OP's and NAO's feet land on each other
   // in half their steps (0.044 m between the centre lines of feet 0.05 m wide).
   p.min_step_width = std::min(feet.spacing, std::max(p.min_step_width * width_scale, 1.1 * feet.width));
-  const double height = model.dof(ub_z).upper;
+  const double height = ub_z >= 0 ? model.dof(ub_z).upper : 0.0;
   if (std::isfinite(height) && height > 0.05) {
     p.max_step_length *= height / kDefaultWalkingHeight;
     p.step_duration *= std::sqrt(height / kDefaultWalkingHeight);

@@ -924,11 +924,14 @@ TEST(Scenarios, NoPositionLimitsNoDistanceToALimit) {
   EXPECT_NEAR(summary["min_distance_to_limit"]["value"].get<double>(), 2.5, 0.1);
   // The report's row has the unit and three digits ("2.5 rad (shoulder)", not "2.500000").
   const nlohmann::json limited_report = report_data(*limited);
+  int found = 0;
   for (const auto& row : limited_report["summary"]) {
     if (row[0] == "min distance to a joint limit") {
       EXPECT_NE(row[1].get<std::string>().find(" rad (shoulder)"), std::string::npos) << row[1];
+      ++found;
     }
   }
+  EXPECT_EQ(found, 1);
 }
 
 // A gripper's joint task while the arm is stretched towards a target out of reach: the

@@ -37,11 +37,12 @@ FootPose standing_foot(bool left, const Vector2& heel, double heel_yaw, double s
 
 /// Convex support polygon in the world x-y plane. Its vertices are stored in the object (at
 /// most kMaxVertices), so that building, copying and querying one never allocates: the
-/// walking module builds one in every cycle.
+/// walking module builds one in a cycle where a foot lands, and planned_support() one in
+/// every cycle of a walk.
 class SupportPolygon {
  public:
   static constexpr int kMaxFeet = 4;  ///< from_feet's limit
-  static constexpr int kMaxVertices = 4 * kMaxFeet;
+  static constexpr int kMaxVertices = 4 * kMaxFeet;  ///< the hull of kMaxFeet rectangles
 
   SupportPolygon() = default;
   /// Convex hull of the foot rectangles. Never allocates.
@@ -51,13 +52,13 @@ class SupportPolygon {
   static SupportPolygon standing(const Vector2& heel, double heel_yaw, const FootGeometry& geometry);
   /// Counter-clockwise vertices (none for an empty polygon).
   std::span<const Vector2> vertices() const { return {vertices_.data(), static_cast<size_t>(num_vertices_)}; }
-  double area() const { return area_; }
-  Vector2 centroid() const { return centroid_; }
+  double area() const { return area_; }           ///< [m^2]
+  Vector2 centroid() const { return centroid_; }  ///< [m], world x-y
   /// Distance from p to the boundary, positive inside [m].
   double signed_distance(const Vector2& p) const;
 
  private:
-  std::array<Vector2, kMaxVertices> vertices_;
+  std::array<Vector2, kMaxVertices> vertices_{};
   int num_vertices_ = 0;
   double area_ = 0.0;
   Vector2 centroid_ = Vector2::Zero();

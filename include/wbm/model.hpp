@@ -200,7 +200,9 @@ class ModelBuilder {
 
 /// Default ranges and speed limits of the virtual heel and upper-body dofs, for a robot
 /// whose upper-body origin stands `height` metres above the heel in the home pose
-/// (0: on the ground, a fixed-base robot's base link). Documented in docs/model.md.
+/// (0: on the ground, a fixed-base robot's base link): the heel's speed limit 0.5 m/s x
+/// sqrt(height / 0.6 m) (0.5 m/s for heights up to 0.05 m), as walking's steps scale.
+/// Documented in docs/model.md.
 /// @pre height >= 0 and finite.
 std::array<Dof, 9> default_virtual_dofs(double height);
 

@@ -56,9 +56,8 @@ inline constexpr double kDefaultWalkingHeight = 0.6;
 /// limit: 0.25 m per 0.6 m of height; NAO 0.14 m, H1 0.43 m) and step_duration by that
 /// height's square root (equal Froude numbers, so that a robot walks as the paper model
 /// would at its size: NAO 0.45 s, H1 0.79 s; the URDF import scales the heel's speed limit
-/// alike). A height that is not above 0.05 m (a base on the ground) keeps the default
-/// length and duration.
-/// @throws ConfigError if the model has no upper_body_z dof.
+/// alike). A height that is not above 0.05 m (a base on the ground), or a model without an
+/// upper_body_z dof, keeps the default length and duration.
 WalkingParameters scaled_walking_parameters(const Model& model, const FootGeometry& feet);
 
 enum WalkingFlag : std::uint32_t {
