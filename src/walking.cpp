@@ -216,7 +216,12 @@ std::uint32_t WalkingModule::update_walk(const Controller& c, const ControllerSt
     step_timer_ = 0.0;
     const FootPose& support = next_left_ ? right_ : left_;
     FootPose& swing = next_left_ ? left_ : right_;
-    const FootPose target = stance_target(next_left_, heel, yaw);
+    // Far from the floating heel (more than two steps), the feet face the way there and walk
+    // forward; near it, they turn to its yaw.
+    const Vector2 to_go = heel - real_heel().position;
+    const bool far = to_go.norm() > 2.0 * p_.max_step_length;
+    const double step_yaw = far ? std::atan2(to_go.y(), to_go.x()) : yaw;
+    const FootPose target = stance_target(next_left_, heel, step_yaw);
     if (!feet_at(heel, yaw)) {
       swing = limited_step(next_left_, support, target);
       update_support();

@@ -752,6 +752,26 @@ TEST(Walking, AScenarioWalksWithTheScaledStepsUnlessItGivesItsOwn) {
   EXPECT_NEAR(given_interval, 0.6, 1.5e-3);
 }
 
+// A walk to a floating heel more than two steps away faces the way there and walks forward,
+// then turns to the heel's yaw. Romeo sent 2.8 m behind-left, its heel turned to face left,
+// sidestepped most of the way: still walking at 16 s after 17 footsteps, none of full length;
+// now done after 15 at 13.8 s, three of full length (the helpers' 72 walks on nine robots:
+// never more footsteps, the walks done 12 % sooner in all; full Romeo 22 -> 15 footsteps).
+TEST(Walking, AFarWalkFacesTheWayThere) {
+  const WalkingRobot romeo{"romeo_small", "l_gripper", "l_ankle", "r_ankle"};
+  const auto run = run_scenario(walk_scenario(romeo, "length: 0.22, width: 0.11, ", "-2.81, 0.84, 0.0"));
+  EXPECT_EQ(final_walking(*run)[3], 0.0) << "still walking after " << run->footsteps.size() << " steps";
+  EXPECT_LT(run->error.back()[run->element("hand")], 1e-3);
+  const double length = run->walking_parameters.max_step_length;
+  int full = 0;
+  for (size_t i = 1; i < run->footsteps.size(); ++i) {
+    const FootPose& support = run->footsteps[i - 1].pose;
+    const Vector2 d = run->footsteps[i].pose.position - support.position;
+    full += std::cos(support.yaw) * d.x() + std::sin(support.yaw) * d.y() > 0.9 * length ? 1 : 0;
+  }
+  EXPECT_GE(full, 3) << run->footsteps.size() << " footsteps";
+}
+
 // Walking with balance on: during a walk the upper body is balanced over the feet as
 // planned beside the floating heel (WalkingModule::planned_support). Balanced over the feet
 // left behind, the upper-body shift and the floating heel fought each other: the paper
