@@ -784,7 +784,7 @@ TEST(Walking, WithBalanceTheWalkEnds) {
     EXPECT_EQ(final_walking(*run)[3], 0.0) << id << ": still walking after " << run->footsteps.size() << " steps";
     // Not stepping in place: at most three quarters of the steps the run's time allows (the
     // three stepped in every step's time), the last well before the end (paper 6 at 4.7 s of
-    // 14 s, NAO 22 at 11.0 s of 16 s with its 0.14 m steps, H1 7 at 6.5 s of 16 s).
+    // 14 s, NAO 15 at 7.9 s of 16 s with its 0.14 m steps, H1 7 at 6.5 s of 16 s).
     EXPECT_LE(static_cast<double>(run->footsteps.size()), 0.75 * s.duration / run->walking_parameters.step_duration) << id;
     ASSERT_FALSE(run->footsteps.empty()) << id;
     EXPECT_LT(run->footsteps.back().time, s.duration - 3.0) << id;
@@ -795,7 +795,7 @@ TEST(Walking, WithBalanceTheWalkEnds) {
   paper.balance.enabled = true;
   check(paper, "l_hand", "paper");
   // NAO on feet of its size: the default ones, 0.12 m wide, overlap where its feet stand
-  // 0.10 m apart, and the smallest step width, not below the spacing then, takes 26 steps.
+  // 0.10 m apart (the smallest step width is then the spacing: 16 steps instead of 15).
   for (const WalkingRobot& r : kNarrowAndWideFeet)
     check(walk_scenario(r, r.id == "nao" ? "length: 0.15, width: 0.07, " : "", "-1.4, 0.6, 0.0",
                         "balance: {enabled: true}\n"),
