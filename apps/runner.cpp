@@ -482,9 +482,9 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
       support = current_support();
     }
     // During a walk the upper body is balanced over the feet as planned beside the floating
-    // heel, not over the feet left behind (WalkingModule::planned_support).
+    // heel, not over the feet left behind (WalkingModule::balance_support).
     if (balance && balance_on) {
-      const SupportPolygon& target = walking && walking->walking() ? walking->planned_support(c.q()) : support;
+      const SupportPolygon target = walking ? walking->balance_support(c.q()) : support;
       const std::uint32_t balance_flags = balance->update(c.data(), target, s.dt, cmd);
       ++run->balanced_cycles;
       if (balance_flags & kShiftAtLimit) note_shift_at_limit(model, c, target, balance->last_shift_at_limit(), *run);

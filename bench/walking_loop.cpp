@@ -46,16 +46,16 @@ class WalkLoop {
   }
 
   /// Walking and balance for the next cycle: the command's b_C and external velocities.
-  void modules() {
+  /// Returns the walking module's flags.
+  std::uint32_t modules() {
     const std::uint32_t flags = walking_.update(controller_, last_, cycle_ * kWalkDt, kWalkDt, command_);
     if ((flags & wbm::kWalkFinished) != 0) {
       ++walks_;
       footsteps_in_walks_ = footsteps_ + walking_.num_footsteps();  // up to the end of this walk
     }
     in_walk_ += walking_.walking() ? 1 : 0;
-    const wbm::SupportPolygon support =
-        walking_.walking() ? walking_.planned_support(controller_.q()) : walking_.support();
-    balance_.update(controller_.data(), support, kWalkDt, command_);
+    balance_.update(controller_.data(), walking_.balance_support(controller_.q()), kWalkDt, command_);
+    return flags;
   }
   void control() { last_ = controller_.update(command_, kWalkDt); }
   /// After a timed cycle (untimed): count it, restart at the end of a walk's time.
@@ -73,11 +73,8 @@ class WalkLoop {
   std::string check(bool& ok) {
     std::uint32_t seen = 0;
     bool finite = true;
-    for (int k = 0; k < kCyclesPerWalk && finite; ++k) {
-      seen |= walking_.update(controller_, last_, k * kWalkDt, kWalkDt, command_);
-      const wbm::SupportPolygon support =
-          walking_.walking() ? walking_.planned_support(controller_.q()) : walking_.support();
-      balance_.update(controller_.data(), support, kWalkDt, command_);
+    for (cycle_ = 0; cycle_ < kCyclesPerWalk && finite; ++cycle_) {
+      seen |= modules();
       control();
       finite = last_.ok() && controller_.q().allFinite();
     }
@@ -89,6 +86,7 @@ class WalkLoop {
     ok = finite && (seen & wbm::kWalkFinished) != 0 && !walking_.walking() && walking_.num_footsteps() >= 3 &&
          error < 1e-3;
     restart();
+    walks_ = in_walk_ = footsteps_in_walks_ = 0;  // the counters are the timed run's
     return line;
   }
 

@@ -112,8 +112,7 @@ TEST(Controller, WalkingWithBalanceAllocatesNothing) {
     const std::uint32_t flags = walking.update(c, last, k * dt, dt, cmd);
     seen |= flags;
     landed += (flags & kFootstepLanded) != 0 ? 1 : 0;
-    const SupportPolygon support = walking.walking() ? walking.planned_support(c.q()) : walking.support();
-    balance.update(c.data(), support, dt, cmd);
+    balance.update(c.data(), walking.balance_support(c.q()), dt, cmd);
     last = c.update(cmd, dt);
     ASSERT_TRUE(last.ok()) << k;
   }

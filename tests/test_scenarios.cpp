@@ -572,6 +572,8 @@ TEST(Walking, PlannedSupportStandsBesideTheHeelOfQ) {
   EXPECT_LT((planned.centroid() - standing.centroid()).norm(), 1e-12);
   EXPECT_NEAR(planned.area(), standing.area(), 1e-12);
   EXPECT_GT((planned.centroid() - walking.support().centroid()).norm(), 0.5);  // not the feet at the origin
+  // Standing, the support to balance over is the feet's (planned only while walking).
+  EXPECT_EQ(walking.balance_support(q).centroid(), walking.support().centroid());
   try {
     walking.planned_support(VectorXd::Zero(3));
     ADD_FAILURE() << "accepted a q of 3 entries";

@@ -110,6 +110,9 @@ class WalkingModule {
   /// as they ran (docs/solver.md, "Walking").
   /// Never allocates. @throws ConfigError if q does not have the model's num_dofs() entries.
   SupportPolygon planned_support(const Eigen::VectorXd& q) const;
+  /// The support to balance over in this cycle: planned_support(q) while walking(), else
+  /// support(). Never allocates. @throws ConfigError as planned_support.
+  SupportPolygon balance_support(const Eigen::VectorXd& q) const { return walking_ ? planned_support(q) : support_; }
 
  private:
   FootPose stance_target(bool left, const Vector2& heel, double yaw) const;
