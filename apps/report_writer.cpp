@@ -7,6 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "leg_poser.hpp"
 #include "runner.hpp"
 #include "wbm/balance.hpp"
 #include "wbm/errors.hpp"
@@ -115,16 +116,24 @@ std::string render_report(const ScenarioRun& run) {
   for (int f : frames) frame_list.push_back({{"name", model.frame(f).name}});
   data["robot"] = {{"bodies", bodies}, {"frames", frame_list}};
 
+  // A URDF robot's locked legs are drawn standing on the feet (LegPoser), not rigid under
+  // the leaning, shifting, walking upper body as the controller treats them.
+  LegPoser legs_poser(s, model, run.feet.spacing);
+  double leg_residual = 0.0;
   Data d(model);
   json body_pos = json::array(), frame_pos = json::array(), frame_z = json::array(), heel_path = json::array();
   std::vector<json> target_values(stack.num_elements(), json::array());
   for (int k : samples) {
     forward_kinematics(model, d, run.q[k]);
+    if (legs_poser.usable()) {
+      legs_poser.pose(d, drawn_feet(run, run.time[k]));
+      leg_residual = std::max(leg_residual, legs_poser.residual());
+    }
     json bp = json::array(), fp = json::array(), fz = json::array();
     for (int b = 0; b < nb; ++b)
       for (int i = 0; i < 3; ++i) bp.push_back(hidden[b] ? json(nullptr) : json(micrometres(d.X_WB[b].p[i])));
     for (int f : welded) {
-      const Vector3 p = frame_position(model, d, f);
+      const Vector3 p = legs_poser.leg_frame_position(f).value_or(frame_position(model, d, f));
       for (int i = 0; i < 3; ++i) bp.push_back(micrometres(p[i]));
     }
     for (size_t j = 0; j < frames.size(); ++j) {
@@ -321,6 +330,13 @@ std::string render_report(const ScenarioRun& run) {
   }
   if (summary.contains("walking"))
     for (const std::string& line : describe_walking(summary["walking"])) table.push_back({"walking", line});
+  if (legs_poser.usable())
+    table.push_back({"legs (3D view only)",
+                     "drawn standing on the feet by inverse kinematics; the controller keeps them locked; farthest "
+                     "from a foot: " + number(leg_residual * 1000.0, " mm") +
+                         (leg_residual > 1e-3 ? " (where the upper body's virtual dofs carried it beyond the legs' reach: "
+                                                "drawn stretched towards the foot)"
+                                              : "")});
   for (const json& note : summary["model_notes"]) table.push_back({"note on the model", note});
   for (const json& note : summary["task_notes"]) table.push_back({"note on a task", note});
   if (summary.contains("cycle_time_us"))

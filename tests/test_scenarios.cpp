@@ -18,6 +18,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "leg_poser.hpp"
 #include "report_writer.hpp"
 #include "runner.hpp"
 #include "scenario.hpp"
@@ -1091,6 +1092,7 @@ std::map<std::string, int> expect_report_draws_every_link(const ScenarioRun& run
   EXPECT_EQ(positions.size(), 3 * nodes.size());
   Data data(model);
   forward_kinematics(model, data, run.q.back());
+  const LegPoser legs(run.scenario, model, run.feet.spacing);
   std::map<std::string, int> node;
   for (size_t i = 0; i < nodes.size(); ++i) node[nodes[i]["name"]] = static_cast<int>(i);
   EXPECT_EQ(node.size(), static_cast<size_t>(model.num_frames()));
@@ -1122,6 +1124,7 @@ std::map<std::string, int> expect_report_draws_every_link(const ScenarioRun& run
       EXPECT_TRUE(positions[3 * i].is_null()) << frame.name << " is drawn";
       continue;
     }
+    if (legs.leg_frame_position(f)) continue;  // posed on the feet: LockedLegsAreDrawnStandingOnTheFeet
     const Vector3 drawn(positions[3 * i].get<double>(), positions[3 * i + 1].get<double>(), positions[3 * i + 2].get<double>());
     EXPECT_LE((drawn - frame_pose(model, data, f).p).cwiseAbs().maxCoeff(), 0.5e-6 + 1e-12) << frame.name;  // rounded to 1 um
   }
@@ -1174,6 +1177,106 @@ TEST(Scenarios, ReportDrawsEveryLinkFromTheLinkItHangsFrom) {
       EXPECT_EQ(synthetic[node["j_mimic"]]["parent"], node["link_c"]);
     }
   }
+}
+
+/// The drawn position of node `i` in sample `k` of the report's data.
+Vector3 drawn_position(const nlohmann::json& report, int k, int i) {
+  const nlohmann::json& p = report["body_pos"][k];
+  return Vector3(p[3 * i].get<double>(), p[3 * i + 1].get<double>(), p[3 * i + 2].get<double>());
+}
+
+/// Checks the drawn legs of a run with locked legs: every leg link keeps its distance to the
+/// link it hangs from (joints turn about a link's origin), the legs were posed (a knee
+/// drawn away from where the locked leg has it), and each ankle, between its steps, is
+/// drawn nearer to its place on its foot than the locked leg has it, and until
+/// `reachable_until` [s] stands there to within `tolerance` [m]. Its place: as in the upright
+/// pose with straight legs, ankle_up (the ankle's position there, the heel at the origin
+/// facing x) moved from the foot standing beside that heel to the foot it stands on now.
+void expect_legs_stand_on_the_feet(const ScenarioRun& run, const std::array<std::string, 2>& ankles,
+                                   const std::array<std::string, 2>& knees, double reachable_until, double tolerance) {
+  const Model& model = *run.model;
+  const nlohmann::json report = report_data(run);
+  std::map<std::string, int> node;
+  const auto& nodes = report["robot"]["bodies"];
+  for (size_t i = 0; i < nodes.size(); ++i) node[nodes[i]["name"]] = static_cast<int>(i);
+  const LegPoser legs(run.scenario, model, run.feet.spacing);
+  ASSERT_TRUE(legs.usable());
+  Data up(model), data(model);
+  forward_kinematics(model, up, upright_base_configuration(model, Eigen::VectorXd::Zero(model.num_dofs())));
+  const int samples = static_cast<int>(report["time"].size());
+  double knee_moved = 0.0;
+  int rest_checks = 0;
+  for (int k = 0; k < samples; ++k) {
+    const double t = report["time"][k].get<double>();
+    const int cycle = static_cast<int>(std::lower_bound(run.time.begin(), run.time.end(), t - 1e-12) - run.time.begin());
+    forward_kinematics(model, data, run.q[cycle]);
+    for (int f = 0; f < model.num_frames(); ++f) {
+      if (!legs.leg_frame_position(f)) continue;
+      const int i = node[model.frame(f).name];
+      const int parent = nodes[i]["parent"];
+      ASSERT_GE(parent, 0) << model.frame(f).name;
+      const int pf = model.frame_index(nodes[parent]["name"]);
+      const double length = (frame_pose(model, data, f).p - frame_pose(model, data, pf).p).norm();
+      EXPECT_NEAR((drawn_position(report, k, i) - drawn_position(report, k, parent)).norm(), length, 3e-6)
+          << model.frame(f).name << " at t = " << t;
+    }
+    for (int side = 0; side < 2; ++side) {
+      const int knee = model.frame_index(knees[side]);
+      knee_moved = std::max(knee_moved, (drawn_position(report, k, node[knees[side]]) - frame_pose(model, data, knee).p).norm());
+      // Between steps: no footstep of this foot lands within a step duration from t.
+      bool swinging = false;
+      FootPose foot = drawn_feet(run, run.time.front()).pose[side];
+      for (const Footstep& step : run.footsteps)
+        if (step.left == (side == 0)) {
+          if (step.time <= t) foot = step.pose;
+          else if (step.time - run.walking_parameters.step_duration < t) swinging = true;
+        }
+      if (swinging) continue;
+      const FootPose beside = standing_foot(side == 0, Vector2::Zero(), 0.0, run.feet.spacing);
+      const Vector3 up_ankle = frame_pose(model, up, model.frame_index(ankles[side])).p;
+      const Vector2 in_foot = Eigen::Rotation2Dd(-beside.yaw) * (up_ankle.head<2>() - beside.position);
+      Vector3 expected;
+      expected << foot.position + Eigen::Rotation2Dd(foot.yaw) * in_foot, up_ankle.z();
+      const double off = (drawn_position(report, k, node[ankles[side]]) - expected).norm();
+      EXPECT_LE(off, (frame_pose(model, data, model.frame_index(ankles[side])).p - expected).norm() + 3e-6)
+          << ankles[side] << " at t = " << t;
+      if (t <= reachable_until) {
+        EXPECT_LE(off, tolerance) << ankles[side] << " at t = " << t;
+        ++rest_checks;
+      }
+    }
+  }
+  EXPECT_GT(knee_moved, 0.01);
+  EXPECT_GT(rest_checks, 10);
+}
+
+// A URDF robot's locked legs are drawn standing on the feet (LegPoser): not rigid under the
+// upper body, whose home pose leans 0.15 rad forward (the ankles swung back behind the heel),
+// which balance shifts over the feet and which walks (the legs slid over the floor).
+TEST(Scenarios, LockedLegsAreDrawnStandingOnTheFeet) {
+  // G1 reaching with balance, standing turned away from the world's axes.
+  Scenario g1_turned = shipped("g1_reach_with_balance");
+  g1_turned.initial = {{"heel_x", 0.3}, {"heel_y", -0.2}, {"heel_yaw", 2.5}};
+  const auto g1 = run_scenario(g1_turned);
+  expect_legs_stand_on_the_feet(*g1, {"left_ankle_roll_link", "right_ankle_roll_link"},
+                                {"left_knee_link", "right_knee_link"}, 1e9, 3e-6);
+  // NAO walks to a target 1 m ahead. Its legs stand on the feet before the walk (to 3 mm:
+  // straight in the upright pose, they are up to 2.5 mm short for the home pose's lean);
+  // then the upper body runs ahead of the feet and leans and shifts further than NAO's short
+  // legs reach (up to 0.14 m forward: upper_body_x's range is the paper model's), and they
+  // are drawn stretched towards the feet.
+  const auto nao = run_scenario(parse_scenario(
+      "name: nao_walk\nrobot: {urdf: '" + wbm_test::shipped_model("nao").path + "', legs: [LPelvis, RPelvis]}\n" +
+          "duration: 6\nfrozen: [heel_x, heel_y, heel_yaw]\nwalking: {enabled: true}\n" +
+          "feet: {length: 0.16, width: 0.09, left_frame: l_sole, right_frame: r_sole}\n" +
+          "tasks: [{name: hand, type: position, frame: l_gripper}]\n" +
+          "timeline: [{t: 0.2, activate: [hand], relative_targets: {hand: [1.0, 0.3, 0]}}]\n",
+      "nao_walk.yaml", "."));
+  ASSERT_GE(nao->footsteps.size(), 4u);
+  expect_legs_stand_on_the_feet(*nao, {"l_ankle", "r_ankle"}, {"LTibia", "RTibia"}, 0.2, 3e-3);
+  // The built-in model has no legs to pose (its heel-to-pelvis link stands for them).
+  const Model paper = make_paper_model();
+  EXPECT_FALSE(LegPoser(shipped("fig7_top_right_hand"), paper, 0.18).usable());
 }
 
 // Balance without walking: the report draws the feet the centre of mass is kept over (both

@@ -1,0 +1,92 @@
+#pragma once
+/// @file
+/// The 3D view's legs: a URDF robot's locked legs drawn standing on the feet.
+
+#include <array>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "scenario.hpp"
+#include "wbm/balance.hpp"
+#include "wbm/kinematics.hpp"
+
+namespace wbm {
+
+struct ScenarioRun;
+
+/// Where the report draws the two feet at one instant: each foot's place on the floor and
+/// how high it is lifted [m] (index 0 left, 1 right).
+struct DrawnFeet {
+  std::array<FootPose, 2> pose;
+  std::array<double, 2> lift = {0.0, 0.0};
+};
+
+/// The feet at time `t` [s] as the report draws them: standing beside the heel of the first
+/// cycle (the real heel while walking), then each footstep landing at its time after a
+/// swing of the walk's step_duration, moved along the floor by a smooth step (3 s^2 - 2 s^3
+/// of the swing's share s) and lifted by 0.2 max_step_length sin(pi s).
+DrawnFeet drawn_feet(const ScenarioRun& run, double t);
+
+/// The controller treats a URDF robot's locked legs as rigid: welded to the root link at
+/// joint value 0 (the paper's model has no legs; below the heel, the robot's own walking
+/// controller moves them). Drawn so, they swing with the upper body's lean, shift and
+/// height, and slide over the floor while the feet step. LegPoser poses them for the report
+/// instead: the same URDF imported with the legs free, and for each drawn sample a damped
+/// least-squares inverse kinematics of the leg joints (within their position limits,
+/// starting from the previous sample's solution) puts each leg's last link where it stands
+/// on its foot, relative to the foot as in the upright pose with straight legs
+/// (upright_base_configuration). A foot out of the leg's reach leaves the leg stretched
+/// towards it (residual()). Only the drawing changes: the trajectory, the centre of mass
+/// and the controller keep the locked legs.
+class LegPoser {
+ public:
+  /// Usable (usable()) when the scenario's robot is a URDF with exactly two locked legs,
+  /// one on each side of the root, each with a joint; otherwise nothing is posed.
+  /// @param model the scenario's model; @param spacing [m] the feet's spacing (FootGeometry).
+  LegPoser(const Scenario& scenario, const Model& model, double spacing);
+  ~LegPoser();
+
+  bool usable() const { return usable_; }
+  /// Poses the legs under the upper body of `data` (forward_kinematics() of the scenario's
+  /// model) on `feet`.
+  /// @pre usable()
+  void pose(const Data& data, const DrawnFeet& feet);
+  /// Position [m] of the model's frame `frame` in the world after pose(), if the frame is
+  /// in a locked leg; else nullopt.
+  std::optional<Vector3> leg_frame_position(int frame) const;
+  /// Largest distance [m] of a leg's last link from its place on the foot (position, and
+  /// orientation error times 0.1 m) after the last pose().
+  double residual() const { return residual_; }
+
+ private:
+  struct Leg {
+    int end_frame = -1;  ///< the leg's last moving link, in the leg model
+    Transform X_FE;      ///< its pose in the foot frame, upright with straight legs
+  };
+  /// Forward kinematics of the leg model at q_leg_, its legs' errors towards the targets
+  /// (12: per leg position [m], orientation [rad] times 0.1 m) and Jacobian (12 x leg
+  /// dofs), residual_; returns the squared error.
+  double evaluate_legs(const std::array<Transform, 2>& X_RE_target, Eigen::MatrixXd& J, Eigen::VectorXd& e);
+
+  /// Levenberg-Marquardt from q_leg_ towards the targets (each leg's last link relative to
+  /// the root link); leaves q_leg_, residual_ and the leg model's poses at the best found.
+  void solve_legs(const std::array<Transform, 2>& X_RE_target);
+
+  bool usable_ = false;
+  const Model* model_ = nullptr;
+  std::unique_ptr<Model> leg_model_;  ///< the same URDF with the legs free
+  std::unique_ptr<Data> leg_data_;
+  int root_ = -1, leg_root_ = -1;     ///< the root link's frame in the model and the leg model
+  std::array<Leg, 2> legs_;
+  std::vector<int> leg_dofs_;         ///< the leg model's dofs of the legs
+  std::vector<int> dof_in_model_;     ///< per leg-model dof: the model's dof of the same name, or -1
+  std::vector<int> leg_frame_of_;     ///< per model frame: the leg model's frame if in a leg, else -1
+  Eigen::MatrixXd J6_;               ///< a frame Jacobian of the leg model (6 x its dofs)
+  std::vector<double> seed_;          ///< per leg dof: where a solve starts afresh
+  Eigen::VectorXd q_leg_;             ///< the leg model's configuration (kept between samples)
+  std::vector<Vector3> positions_;    ///< per model frame, after pose(): leg frames' positions
+  double residual_ = 0.0;
+};
+
+}  // namespace wbm
