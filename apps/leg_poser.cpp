@@ -143,13 +143,14 @@ LegPoser::LegPoser(const Scenario& scenario, const Model& model, double spacing)
   if (left[0] == left[1]) return;  // both on one side: which foot is whose is unclear
   leg_data_ = std::make_unique<Data>(lm);
   J6_.resize(6, lm.num_dofs());
-  // The seed: zero (the straight legs), but a tenth of the range away from a limit that
-  // close (a knee whose range starts at straight bends from there the right way).
+  // The seed: zero (the straight legs) moved towards the middle of each range by up to a
+  // tenth of the range, so that a knee whose range lies mostly on one side of straight
+  // starts bent that way (straight, it is singular, and a step from there need not bend it).
   q_leg_ = Eigen::VectorXd::Zero(lm.num_dofs());
   for (int i : leg_dofs_) {
     const Dof& dof = lm.dof(i);
-    const double margin = 0.1 * (dof.upper - dof.lower);
-    seed_.push_back(dof.continuous ? 0.0 : std::clamp(0.0, dof.lower + margin, dof.upper - margin));
+    const double reach = 0.1 * (dof.upper - dof.lower);
+    seed_.push_back(dof.continuous ? 0.0 : std::clamp(dof.center(), -reach, reach));
     q_leg_[i] = seed_.back();
   }
   usable_ = true;
