@@ -1260,6 +1260,16 @@ TEST(Scenarios, LockedLegsAreDrawnStandingOnTheFeet) {
   const auto g1 = run_scenario(g1_turned);
   expect_legs_stand_on_the_feet(*g1, {"left_ankle_roll_link", "right_ankle_roll_link"},
                                 {"left_knee_link", "right_knee_link"}, 1e9, 3e-6);
+  // H1 standing with balance: its knees' range starts 0.26 rad below straight, so a straight
+  // seed stayed straight (singular) and its legs missed the feet by 98 mm.
+  const auto h1 = run_scenario(parse_scenario(
+      "name: h1\nrobot: {urdf: '" + wbm_test::shipped_model("h1").path +
+          "', legs: [left_hip_yaw_link, right_hip_yaw_link]}\nduration: 1\nfrozen: [heel_x, heel_y, heel_yaw]\n" +
+          "balance: {enabled: true}\ntasks: [{name: hand, type: position, frame: left_elbow_link}]\n" +
+          "timeline: [{t: 0, activate: [hand], relative_targets: {hand: [0.1, 0, 0.1]}}]\n",
+      "h1.yaml", "."));
+  expect_legs_stand_on_the_feet(*h1, {"left_ankle_link", "right_ankle_link"}, {"left_knee_link", "right_knee_link"}, 1e9,
+                                1e-3);
   // NAO walks to a target 1 m ahead. Its legs stand on the feet before the walk (to 3 mm:
   // straight in the upright pose, they are up to 2.5 mm short for the home pose's lean);
   // then the upper body runs ahead of the feet and leans and shifts further than NAO's short
