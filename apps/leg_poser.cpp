@@ -130,13 +130,12 @@ LegPoser::LegPoser(const Scenario& scenario, const Model& model, double spacing)
   // it; the legs' ends stand on their feet as there (the locked legs are that pose).
   Data d(model);
   forward_kinematics(model, d, upright_base_configuration(model, Eigen::VectorXd::Zero(model.num_dofs())));
-  const Transform X_RW = frame_pose(model, d, root_).inverse();
   std::array<bool, 2> left{};
   for (int leg = 0; leg < 2; ++leg) {
     const int end_in_model = model.find_frame(lm.frame(end[leg]).name);
     if (end_in_model < 0) return;
     const Transform X_WE = frame_pose(model, d, end_in_model);
-    left[leg] = (X_RW * X_WE.p).y() > 0;
+    left[leg] = X_WE.p.y() > 0;  // the world's y is the robot's left here (also with a turned root link)
     legs_[left[leg] ? 0 : 1] = {end[leg], foot_frame(standing_foot(left[leg], Vector2::Zero(), 0.0, spacing), 0.0)
                                               .inverse() * X_WE};
   }

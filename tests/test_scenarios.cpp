@@ -8,6 +8,7 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <numbers>
 #include <set>
 #include <random>
 #include <sstream>
@@ -1260,6 +1261,12 @@ TEST(Scenarios, LockedLegsAreDrawnStandingOnTheFeet) {
   const auto g1 = run_scenario(g1_turned);
   expect_legs_stand_on_the_feet(*g1, {"left_ankle_roll_link", "right_ankle_roll_link"},
                                 {"left_knee_link", "right_knee_link"}, 1e9, 3e-6);
+  // The same G1 with its root link turned half round (root_rpy; it faces backward): the
+  // URDF's right leg stands at the heel's left.
+  Scenario g1_backward = shipped("g1_reach_with_balance");
+  g1_backward.urdf_options.root_rpy = Vector3(0, 0, std::numbers::pi);
+  expect_legs_stand_on_the_feet(*run_scenario(g1_backward), {"right_ankle_roll_link", "left_ankle_roll_link"},
+                                {"right_knee_link", "left_knee_link"}, 1e9, 3e-6);
   // H1 standing with balance: its knees' range starts 0.26 rad below straight, so a straight
   // seed stayed straight (singular) and its legs missed the feet by 98 mm.
   const auto h1 = run_scenario(parse_scenario(
