@@ -42,7 +42,10 @@ Transform foot_frame(const FootPose& foot, double lift) {
   return X;
 }
 
-constexpr double kRotationWeight = 0.1;  // [m] per rad: orientation errors count as this lever
+// [m] per rad: an orientation error counts as a position error of this lever. Large enough
+// that a foot out of reach stays flat on the floor and the ankle misses instead (at 0.1 m
+// NAO's foot turned 0.3 rad and tilted into the floor to save a centimetre).
+constexpr double kRotationWeight = 0.5;
 constexpr int kMaxIterations = 100;
 
 }  // namespace
@@ -112,7 +115,10 @@ LegPoser::LegPoser(const Scenario& scenario, const Model& model, double spacing)
     if (leg < 0) continue;
     leg_dofs_.push_back(lm.body(b).dof);
     const int n = static_cast<int>(lm.moving_bodies(b).size());
-    if (n > depth[leg]) depth[leg] = n, end[leg] = f;
+    if (n > depth[leg]) {
+      depth[leg] = n;
+      end[leg] = f;
+    }
   }
   std::sort(leg_dofs_.begin(), leg_dofs_.end());
   leg_dofs_.erase(std::unique(leg_dofs_.begin(), leg_dofs_.end()), leg_dofs_.end());
@@ -149,7 +155,7 @@ LegPoser::LegPoser(const Scenario& scenario, const Model& model, double spacing)
   for (int i : leg_dofs_) {
     const Dof& dof = lm.dof(i);
     const double reach = 0.1 * (dof.upper - dof.lower);
-    seed_.push_back(dof.continuous ? 0.0 : std::clamp(dof.center(), -reach, reach));
+    seed_.push_back(dof.continuous ? 0.0 : std::clamp(std::clamp(dof.center(), -reach, reach), dof.lower, dof.upper));
     q_leg_[i] = seed_.back();
   }
   usable_ = true;
@@ -162,13 +168,15 @@ double LegPoser::evaluate_legs(const std::array<Transform, 2>& X_RE_target, Eige
   Data& ld = *leg_data_;
   forward_kinematics(lm, ld, q_leg_);
   const Transform X_WR_leg = frame_pose(lm, ld, leg_root_);
-  residual_ = 0.0;
+  residual_ = position_miss_ = angle_miss_ = 0.0;
   for (int side = 0; side < 2; ++side) {
     const Transform target = X_WR_leg * X_RE_target[side];
     const Transform X = frame_pose(lm, ld, legs_[side].end_frame);
     const Eigen::AngleAxisd turn(target.R * X.R.transpose());
     e.segment<3>(6 * side) = target.p - X.p;
     e.segment<3>(6 * side + 3) = kRotationWeight * turn.angle() * turn.axis();
+    position_miss_ = std::max(position_miss_, e.segment<3>(6 * side).norm());
+    angle_miss_ = std::max(angle_miss_, std::abs(turn.angle()));
     residual_ = std::max({residual_, e.segment<3>(6 * side).norm(), e.segment<3>(6 * side + 3).norm()});
     frame_jacobian(lm, ld, legs_[side].end_frame, J6_);
     for (int j = 0; j < static_cast<int>(leg_dofs_.size()); ++j) {
@@ -185,12 +193,12 @@ void LegPoser::solve_legs(const std::array<Transform, 2>& X_RE_target) {
   // knee), so undamped steps there point anywhere.
   const Model& lm = *leg_model_;
   const int n = static_cast<int>(leg_dofs_.size());
-  Eigen::MatrixXd J(12, n);
-  Eigen::VectorXd e(12), q_before;
+  Eigen::MatrixXd J(12, n), J_new(12, n), A(12, 12);
+  Eigen::VectorXd e(12), e_new(12), q_before;
   double damping = 1e-4;  // [m^2]
   double error = evaluate_legs(X_RE_target, J, e);
   for (int iteration = 0; iteration < kMaxIterations && residual_ > 1e-7 && damping < 1e3; ++iteration) {
-    Eigen::MatrixXd A = J * J.transpose();
+    A.noalias() = J * J.transpose();
     A.diagonal().array() += damping;
     const Eigen::VectorXd step = J.transpose() * A.ldlt().solve(e);
     q_before = q_leg_;
@@ -200,16 +208,18 @@ void LegPoser::solve_legs(const std::array<Transform, 2>& X_RE_target) {
       q += step[j];
       if (!dof.continuous) q = std::clamp(q, dof.lower, dof.upper);
     }
-    Eigen::MatrixXd J_new(12, n);
-    Eigen::VectorXd e_new(12);
-    const double residual_before = residual_;
+    const std::array<double, 3> misses_before = {residual_, position_miss_, angle_miss_};
     const double error_new = evaluate_legs(X_RE_target, J_new, e_new);
     if (error_new < error) {
-      error = error_new, J = J_new, e = e_new;
+      error = error_new;
+      J = J_new;
+      e = e_new;
       damping = std::max(0.5 * damping, 1e-8);
     } else {
       q_leg_ = q_before;
-      residual_ = residual_before;
+      residual_ = misses_before[0];
+      position_miss_ = misses_before[1];
+      angle_miss_ = misses_before[2];
       damping *= 4.0;
     }
   }
@@ -231,10 +241,15 @@ void LegPoser::pose(const Data& data, const DrawnFeet& feet) {
     // Stuck (a knee straight at its limit, which a step from the singular straight leg
     // cannot bend): again from the seed, keeping the better.
     const Eigen::VectorXd q_kept = q_leg_;
-    const double residual_kept = residual_;
+    const std::array<double, 3> misses_kept = {residual_, position_miss_, angle_miss_};
     for (size_t j = 0; j < leg_dofs_.size(); ++j) q_leg_[leg_dofs_[j]] = seed_[j];
     solve_legs(X_RE_target);
-    if (residual_ > residual_kept) q_leg_ = q_kept, residual_ = residual_kept;
+    if (residual_ > misses_kept[0]) {
+      q_leg_ = q_kept;
+      residual_ = misses_kept[0];
+      position_miss_ = misses_kept[1];
+      angle_miss_ = misses_kept[2];
+    }
   }
   forward_kinematics(lm, *leg_data_, q_leg_);  // the kept configuration's poses
   // Each leg frame's position relative to the root link, from the posed leg model.

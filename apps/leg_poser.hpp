@@ -28,8 +28,8 @@ struct DrawnFeet {
 /// of the swing's share s) and lifted by 0.2 max_step_length sin(pi s).
 DrawnFeet drawn_feet(const ScenarioRun& run, double t);
 
-/// The controller treats a URDF robot's locked legs as rigid: welded to the root link at
-/// joint value 0 (the paper's model has no legs; below the heel, the robot's own walking
+/// The controller treats a URDF robot's locked legs as rigid: welded at joint value 0 to
+/// the link they hang from (the root link, or e.g. a pelvis below the waist joints) (the paper's model has no legs; below the heel, the robot's own walking
 /// controller moves them). Drawn so, they swing with the upper body's lean, shift and
 /// height, and slide over the floor while the feet step. LegPoser poses them for the report
 /// instead: the same URDF imported with the legs free, and for each drawn sample a damped
@@ -37,7 +37,7 @@ DrawnFeet drawn_feet(const ScenarioRun& run, double t);
 /// starting from the previous sample's solution) puts each leg's last link where it stands
 /// on its foot, relative to the foot as in the upright pose with straight legs
 /// (upright_base_configuration). A foot out of the leg's reach leaves the leg stretched
-/// towards it (residual()). Only the drawing changes: the trajectory, the centre of mass
+/// towards it (position_miss(), angle_miss()). Only the drawing changes: the trajectory, the centre of mass
 /// and the controller keep the locked legs.
 class LegPoser {
  public:
@@ -55,9 +55,13 @@ class LegPoser {
   /// Position [m] of the model's frame `frame` in the world after pose(), if the frame is
   /// in a locked leg; else nullopt.
   std::optional<Vector3> leg_frame_position(int frame) const;
-  /// Largest distance [m] of a leg's last link from its place on the foot (position, and
-  /// orientation error times 0.1 m) after the last pose().
-  double residual() const { return residual_; }
+  /// After the last pose(): the largest distance [m] of a leg's last link from its place on
+  /// its foot, and the largest angle [rad] it is turned from the foot's orientation there.
+  /// Where both are not about zero the foot was out of the legs' reach: beyond their
+  /// length or joint limits, or (NAO's hip joints, one dof for both legs) a turn the coupled
+  /// legs cannot take.
+  double position_miss() const { return position_miss_; }
+  double angle_miss() const { return angle_miss_; }
 
  private:
   struct Leg {
@@ -65,7 +69,7 @@ class LegPoser {
     Transform X_FE;      ///< its pose in the foot frame, upright with straight legs
   };
   /// Forward kinematics of the leg model at q_leg_, its legs' errors towards the targets
-  /// (12: per leg position [m], orientation [rad] times 0.1 m) and Jacobian (12 x leg
+  /// (12: per leg position [m], orientation [rad] times 0.5 m) and Jacobian (12 x leg
   /// dofs), residual_; returns the squared error.
   double evaluate_legs(const std::array<Transform, 2>& X_RE_target, Eigen::MatrixXd& J, Eigen::VectorXd& e);
 
@@ -86,7 +90,8 @@ class LegPoser {
   std::vector<double> seed_;          ///< per leg dof: where a solve starts afresh
   Eigen::VectorXd q_leg_;             ///< the leg model's configuration (kept between samples)
   std::vector<Vector3> positions_;    ///< per model frame, after pose(): leg frames' positions
-  double residual_ = 0.0;
+  double residual_ = 0.0;  ///< the larger of the misses, the angle times 0.5 m (the solve's stop test)
+  double position_miss_ = 0.0, angle_miss_ = 0.0;
 };
 
 }  // namespace wbm

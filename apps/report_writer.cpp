@@ -1,8 +1,10 @@
 #include "report_writer.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
+#include <numbers>
 #include <set>
 
 #include <nlohmann/json.hpp>
@@ -119,7 +121,7 @@ std::string render_report(const ScenarioRun& run) {
   // A URDF robot's locked legs are drawn standing on the feet (LegPoser), not rigid under
   // the leaning, shifting, walking upper body as the controller treats them.
   LegPoser legs_poser(s, model, run.feet.spacing);
-  double leg_residual = 0.0;
+  std::array<double, 2> leg_miss = {0.0, 0.0};  // the farthest a foot was missed [m], [rad]
   Data d(model);
   json body_pos = json::array(), frame_pos = json::array(), frame_z = json::array(), heel_path = json::array();
   std::vector<json> target_values(stack.num_elements(), json::array());
@@ -127,7 +129,7 @@ std::string render_report(const ScenarioRun& run) {
     forward_kinematics(model, d, run.q[k]);
     if (legs_poser.usable()) {
       legs_poser.pose(d, drawn_feet(run, run.time[k]));
-      leg_residual = std::max(leg_residual, legs_poser.residual());
+      leg_miss = {std::max(leg_miss[0], legs_poser.position_miss()), std::max(leg_miss[1], legs_poser.angle_miss())};
     }
     json bp = json::array(), fp = json::array(), fz = json::array();
     for (int b = 0; b < nb; ++b)
@@ -330,13 +332,17 @@ std::string render_report(const ScenarioRun& run) {
   }
   if (summary.contains("walking"))
     for (const std::string& line : describe_walking(summary["walking"])) table.push_back({"walking", line});
-  if (legs_poser.usable())
+  if (legs_poser.usable()) {
+    // Below a micrometre and 0.01 deg: on the feet (the solve stops at 0.1 um).
+    const bool on_feet = leg_miss[0] < 1e-6 && leg_miss[1] < 1e-4;
     table.push_back({"legs (3D view only)",
-                     "drawn standing on the feet by inverse kinematics; the controller keeps them locked; farthest "
-                     "from a foot: " + number(leg_residual * 1000.0, " mm") +
-                         (leg_residual > 1e-3 ? " (where the upper body's virtual dofs carried it beyond the legs' reach: "
-                                                "drawn stretched towards the foot)"
-                                              : "")});
+                     "drawn standing on the feet by inverse kinematics; the controller keeps them locked; " +
+                         (on_feet ? std::string("every foot reached")
+                                  : "farthest from a foot " + number(leg_miss[0] * 1000.0, " mm") + ", turned from it " +
+                                        number(leg_miss[1] * 180.0 / std::numbers::pi, " deg") +
+                                        " (out of the legs' reach: beyond their length or joint limits, or a turn "
+                                        "coupled hip joints cannot take; drawn as near as they get)")});
+  }
   for (const json& note : summary["model_notes"]) table.push_back({"note on the model", note});
   for (const json& note : summary["task_notes"]) table.push_back({"note on a task", note});
   if (summary.contains("cycle_time_us"))

@@ -1188,12 +1188,12 @@ Vector3 drawn_position(const nlohmann::json& report, int k, int i) {
 
 /// Checks the drawn legs of a run with locked legs: every leg link keeps its distance to the
 /// link it hangs from (joints turn about a link's origin), the legs were posed (a knee
-/// drawn away from where the locked leg has it), and each ankle, between its steps, is
-/// drawn nearer to its place on its foot than the locked leg has it, and until
-/// `reachable_until` [s] stands there to within `tolerance` [m]. Its place: as in the upright
-/// pose with straight legs, ankle_up (the ankle's position there, the heel at the origin
-/// facing x) moved from the foot standing beside that heel to the foot it stands on now.
-void expect_legs_stand_on_the_feet(const ScenarioRun& run, const std::array<std::string, 2>& ankles,
+/// drawn away from where the locked leg has it), and until `reachable_until` [s] each of
+/// `points` (per side: the ankle and frames fixed below it, which a tilted or turned foot
+/// moves), between its steps, stands at its place on its foot to within `tolerance` [m]: as
+/// in the upright pose with straight legs, its position there (the heel at the origin facing
+/// x) moved from the foot standing beside that heel to the foot it stands on now.
+void expect_legs_stand_on_the_feet(const ScenarioRun& run, const std::array<std::vector<std::string>, 2>& points,
                                    const std::array<std::string, 2>& knees, double reachable_until, double tolerance) {
   const Model& model = *run.model;
   const nlohmann::json report = report_data(run);
@@ -1232,17 +1232,14 @@ void expect_legs_stand_on_the_feet(const ScenarioRun& run, const std::array<std:
           if (step.time <= t) foot = step.pose;
           else if (step.time - run.walking_parameters.step_duration < t) swinging = true;
         }
-      if (swinging) continue;
+      if (swinging || t > reachable_until) continue;
       const FootPose beside = standing_foot(side == 0, Vector2::Zero(), 0.0, run.feet.spacing);
-      const Vector3 up_ankle = frame_pose(model, up, model.frame_index(ankles[side])).p;
-      const Vector2 in_foot = Eigen::Rotation2Dd(-beside.yaw) * (up_ankle.head<2>() - beside.position);
-      Vector3 expected;
-      expected << foot.position + Eigen::Rotation2Dd(foot.yaw) * in_foot, up_ankle.z();
-      const double off = (drawn_position(report, k, node[ankles[side]]) - expected).norm();
-      EXPECT_LE(off, (frame_pose(model, data, model.frame_index(ankles[side])).p - expected).norm() + 3e-6)
-          << ankles[side] << " at t = " << t;
-      if (t <= reachable_until) {
-        EXPECT_LE(off, tolerance) << ankles[side] << " at t = " << t;
+      for (const std::string& point : points[side]) {
+        const Vector3 up_point = frame_pose(model, up, model.frame_index(point)).p;
+        const Vector2 in_foot = Eigen::Rotation2Dd(-beside.yaw) * (up_point.head<2>() - beside.position);
+        Vector3 expected;
+        expected << foot.position + Eigen::Rotation2Dd(foot.yaw) * in_foot, up_point.z();
+        EXPECT_LE((drawn_position(report, k, node[point]) - expected).norm(), tolerance) << point << " at t = " << t;
         ++rest_checks;
       }
     }
@@ -1259,13 +1256,13 @@ TEST(Scenarios, LockedLegsAreDrawnStandingOnTheFeet) {
   Scenario g1_turned = shipped("g1_reach_with_balance");
   g1_turned.initial = {{"heel_x", 0.3}, {"heel_y", -0.2}, {"heel_yaw", 2.5}};
   const auto g1 = run_scenario(g1_turned);
-  expect_legs_stand_on_the_feet(*g1, {"left_ankle_roll_link", "right_ankle_roll_link"},
+  expect_legs_stand_on_the_feet(*g1, {{{"left_ankle_roll_link"}, {"right_ankle_roll_link"}}},
                                 {"left_knee_link", "right_knee_link"}, 1e9, 3e-6);
   // The same G1 with its root link turned half round (root_rpy; it faces backward): the
   // URDF's right leg stands at the heel's left.
   Scenario g1_backward = shipped("g1_reach_with_balance");
   g1_backward.urdf_options.root_rpy = Vector3(0, 0, std::numbers::pi);
-  expect_legs_stand_on_the_feet(*run_scenario(g1_backward), {"right_ankle_roll_link", "left_ankle_roll_link"},
+  expect_legs_stand_on_the_feet(*run_scenario(g1_backward), {{{"right_ankle_roll_link"}, {"left_ankle_roll_link"}}},
                                 {"right_knee_link", "left_knee_link"}, 1e9, 3e-6);
   // H1 standing with balance: its knees' range starts 0.26 rad below straight, so a straight
   // seed stayed straight (singular) and its legs missed the feet by 98 mm.
@@ -1275,13 +1272,13 @@ TEST(Scenarios, LockedLegsAreDrawnStandingOnTheFeet) {
           "balance: {enabled: true}\ntasks: [{name: hand, type: position, frame: left_elbow_link}]\n" +
           "timeline: [{t: 0, activate: [hand], relative_targets: {hand: [0.1, 0, 0.1]}}]\n",
       "h1.yaml", "."));
-  expect_legs_stand_on_the_feet(*h1, {"left_ankle_link", "right_ankle_link"}, {"left_knee_link", "right_knee_link"}, 1e9,
+  expect_legs_stand_on_the_feet(*h1, {{{"left_ankle_link"}, {"right_ankle_link"}}}, {"left_knee_link", "right_knee_link"}, 1e9,
                                 1e-3);
-  // NAO walks to a target 1 m ahead. Its legs stand on the feet before the walk (to 3 mm:
-  // straight in the upright pose, they are up to 2.5 mm short for the home pose's lean);
-  // then the upper body runs ahead of the feet and leans and shifts further than NAO's short
-  // legs reach (up to 0.14 m forward: upper_body_x's range is the paper model's), and they
-  // are drawn stretched towards the feet.
+  // NAO walks to a target 1 m ahead. Its ankles and soles stand on the feet in the home pose,
+  // until the hand's target is switched on at 0.2 s (the soles' places check that the feet
+  // are neither tilted nor turned); then the upper body leans and shifts, and later runs
+  // ahead of the feet, further than NAO's short legs reach (up to 0.14 m forward:
+  // upper_body_x's range is the paper model's), and they are drawn as near as they get.
   const auto nao = run_scenario(parse_scenario(
       "name: nao_walk\nrobot: {urdf: '" + wbm_test::shipped_model("nao").path + "', legs: [LPelvis, RPelvis]}\n" +
           "duration: 6\nfrozen: [heel_x, heel_y, heel_yaw]\nwalking: {enabled: true}\n" +
@@ -1290,7 +1287,17 @@ TEST(Scenarios, LockedLegsAreDrawnStandingOnTheFeet) {
           "timeline: [{t: 0.2, activate: [hand], relative_targets: {hand: [1.0, 0.3, 0]}}]\n",
       "nao_walk.yaml", "."));
   ASSERT_GE(nao->footsteps.size(), 4u);
-  expect_legs_stand_on_the_feet(*nao, {"l_ankle", "r_ankle"}, {"LTibia", "RTibia"}, 0.2, 3e-3);
+  expect_legs_stand_on_the_feet(*nao, {{{"l_ankle", "l_sole"}, {"r_ankle", "r_sole"}}}, {"LTibia", "RTibia"}, 0.2, 3e-6);
+  // A swing foot: half-way through its step it is half-way there and lifted by 0.2
+  // max_step_length; it lands on its footstep.
+  const Footstep& step = nao->footsteps[1];
+  const int side = step.left ? 0 : 1;
+  const FootPose from = drawn_feet(*nao, step.time - nao->walking_parameters.step_duration).pose[side];
+  const DrawnFeet middle = drawn_feet(*nao, step.time - 0.5 * nao->walking_parameters.step_duration);
+  EXPECT_NEAR((middle.pose[side].position - 0.5 * (from.position + step.pose.position)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR(middle.lift[side], 0.2 * nao->walking_parameters.max_step_length, 1e-12);
+  EXPECT_NEAR((drawn_feet(*nao, step.time).pose[side].position - step.pose.position).norm(), 0.0, 1e-12);
+  EXPECT_EQ(drawn_feet(*nao, step.time).lift[side], 0.0);
   // The built-in model has no legs to pose (its heel-to-pelvis link stands for them).
   const Model paper = make_paper_model();
   EXPECT_FALSE(LegPoser(shipped("fig7_top_right_hand"), paper, 0.18).usable());
