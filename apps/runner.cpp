@@ -361,6 +361,7 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
       }
       scaled_fields = text.str();
       walking = std::make_unique<WalkingModule>(model, feet, p);
+      walking->stand_at(c.q());  // beside the start's heel (`initial` may move it), not the home pose's
       run->walking_parameters = p;
     } catch (const Error& e) {
       // "FILE:LINE: walking: ...", and the values the file did not give.

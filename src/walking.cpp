@@ -90,6 +90,17 @@ SupportPolygon WalkingModule::planned_support(const Eigen::VectorXd& q) const {
   return SupportPolygon::standing(Vector2(q[heel_dofs_[0]], q[heel_dofs_[1]]), q[heel_dofs_[2]], feet_);
 }
 
+void WalkingModule::stand_at(const Eigen::VectorXd& q) {
+  if (q.size() != num_dofs_)
+    throw ConfigError("walking: stand_at: q has " + std::to_string(q.size()) + " entries, the model " +
+                      std::to_string(num_dofs_) + " dofs");
+  if (walking_) throw ConfigError("walking: stand_at: a walk is under way");
+  const Vector2 heel(q[heel_dofs_[0]], q[heel_dofs_[1]]);
+  left_ = stance_target(true, heel, q[heel_dofs_[2]]);
+  right_ = stance_target(false, heel, q[heel_dofs_[2]]);
+  update_support();
+}
+
 void WalkingModule::target_changed() {
   given_up_ = false;
   walks_without_progress_ = 0;

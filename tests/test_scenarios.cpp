@@ -458,6 +458,27 @@ TEST(Walking, ObjectWithinReachDoesNotWalk) {
   EXPECT_LT(run->error.back()[run->element("l_hand")], 1e-3);
 }
 
+// A robot that starts elsewhere (`initial` moves the heel) stands there: the walking module
+// placed its feet beside the home pose's heel (0, 0, facing x), so the feet, the real heel and
+// the support balance kept the centre of mass over were 0.36 m away and turned the other way.
+TEST(Walking, TheFeetStandBesideTheStartsHeel) {
+  Scenario s = shipped("walk_object_within_reach");
+  s.initial = {{"heel_x", 0.3}, {"heel_y", -0.2}, {"heel_yaw", 2.5}};
+  s.balance.enabled = s.balance.configured = true;
+  s.duration = 0.1;  // before the (now distant) object makes it walk
+  const auto run = run_scenario(s);
+  ASSERT_TRUE(run->footsteps.empty());
+  for (int k : {0, run->num_cycles() - 1}) {
+    EXPECT_NEAR(run->walking[k][0], 0.3, 1e-12);
+    EXPECT_NEAR(run->walking[k][1], -0.2, 1e-12);
+    EXPECT_NEAR(run->walking[k][2], 2.5, 1e-12);
+    // The support's centroid: the real heel moved half a foot forward along its yaw.
+    EXPECT_LT((run->support[k].centroid() - Vector2(0.3, -0.2)).norm(), run->feet.length) << k;
+  }
+  WalkingModule walking(*run->model, run->feet, run->walking_parameters);
+  EXPECT_THROW(walking.stand_at(Eigen::VectorXd::Zero(3)), ConfigError);
+}
+
 TEST(Walking, UnreachableTargetDoesNotStepForever) {
   Scenario s = shipped("walk_object_ahead");
   s.duration = 20.0;

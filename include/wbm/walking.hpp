@@ -88,6 +88,11 @@ class WalkingModule {
                        Command& command);
   /// The command's targets changed: walking may be triggered again.
   void target_changed();
+  /// Stands both feet beside the heel of `q` (heel x, y, yaw), where a robot whose start is
+  /// not the model's home pose (Controller::reset with the heel elsewhere) stands; the
+  /// constructor stands them beside the home pose's heel. Not during a walk.
+  /// @throws ConfigError if q.size() != num_dofs or a walk is under way.
+  void stand_at(const Eigen::VectorXd& q);
 
   bool walking() const { return walking_; }
   /// The footstep of the last update that returned kFootstepLanded (a default Footstep
