@@ -22,8 +22,8 @@ struct DrawnFeet {
   std::array<double, 2> lift = {0.0, 0.0};
 };
 
-/// The feet at time `t` [s] as the report draws them: standing beside the heel of the first
-/// cycle (the real heel while walking), then each footstep landing at its time after a
+/// The feet at time `t` [s] as the report draws them (the footprints and the posed legs):
+/// standing beside the heel of the first cycle (the real heel while walking), then each footstep landing at its time after a
 /// swing of the walk's step_duration, moved along the floor by a smooth step (3 s^2 - 2 s^3
 /// of the swing's share s) and lifted by 0.2 max_step_length sin(pi s).
 DrawnFeet drawn_feet(const ScenarioRun& run, double t);

@@ -183,10 +183,8 @@ std::string render_report(const ScenarioRun& run) {
     // The feet standing at the start (beside the real heel of the first cycle), then each
     // footstep as it lands: without the first two, no feet were drawn until the first step.
     json prints = json::array();
-    const Vector2 heel(run.walking[0][0], run.walking[0][1]);
-    for (const bool left : {true, false})
-      prints.push_back(footprint(run.time.front(), left, standing_foot(left, heel, run.walking[0][2], run.feet.spacing),
-                                 run.feet));
+    const DrawnFeet start = drawn_feet(run, run.time.front());
+    for (const int side : {0, 1}) prints.push_back(footprint(run.time.front(), side == 0, start.pose[side], run.feet));
     for (const Footstep& f : run.footsteps) prints.push_back(footprint(f.time, f.left, f.pose, run.feet));
     data["footprints"] = prints;
   }
@@ -196,12 +194,9 @@ std::string render_report(const ScenarioRun& run) {
     for (int k : samples) com.push_back(json::array({run.balance[k][0], run.balance[k][1], 0.0}));
     paths.push_back({{"name", "centre of mass (on the ground)"}, {"points", com}});
     if (run.walking.empty()) {
-      const VirtualDofs& v = model.virtual_dofs();
-      const Vector2 heel(run.q[0][v.heel_x], run.q[0][v.heel_y]);
-      const double yaw = run.q[0][v.heel_yaw];
+      const DrawnFeet start = drawn_feet(run, run.time.front());
       json prints = json::array();
-      for (const bool left : {true, false})
-        prints.push_back(footprint(run.time.front(), left, standing_foot(left, heel, yaw, run.feet.spacing), run.feet));
+      for (const int side : {0, 1}) prints.push_back(footprint(run.time.front(), side == 0, start.pose[side], run.feet));
       data["footprints"] = prints;
     }
   }
