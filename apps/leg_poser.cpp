@@ -23,16 +23,6 @@ int parent_frame(const Model& model, int f) {
   return parent_body >= 0 ? model.frame_index(model.body(parent_body).name) : -1;
 }
 
-/// Index into `legs` of the leg frame `f` lies in (`f` or a frame it hangs from is named
-/// there), or -1.
-int leg_of(const Model& model, int f, const std::vector<std::string>& legs) {
-  for (int g = f; g >= 0; g = parent_frame(model, g)) {
-    const auto it = std::find(legs.begin(), legs.end(), model.frame(g).name);
-    if (it != legs.end()) return static_cast<int>(it - legs.begin());
-  }
-  return -1;
-}
-
 /// The foot frame on the floor: at the foot's heel-edge centre, lifted by `lift`, turned by
 /// its yaw.
 Transform foot_frame(const FootPose& foot, double lift) {
@@ -50,17 +40,19 @@ constexpr int kMaxIterations = 100;
 
 }  // namespace
 
-DrawnFeet drawn_feet(const ScenarioRun& run, double t) {
-  Vector2 heel;
-  double yaw = 0.0;
-  if (!run.walking.empty()) {
-    heel = Vector2(run.walking[0][0], run.walking[0][1]);
-    yaw = run.walking[0][2];
-  } else {
-    const VirtualDofs& v = run.model->virtual_dofs();
-    heel = Vector2(run.q[0][v.heel_x], run.q[0][v.heel_y]);
-    yaw = run.q[0][v.heel_yaw];
+int leg_of(const Model& model, int f, const std::vector<std::string>& legs) {
+  for (int g = f; g >= 0; g = parent_frame(model, g)) {
+    const auto it = std::find(legs.begin(), legs.end(), model.frame(g).name);
+    if (it != legs.end()) return static_cast<int>(it - legs.begin());
   }
+  return -1;
+}
+
+DrawnFeet drawn_feet(const ScenarioRun& run, double t) {
+  // The feet stand beside the heel of the first cycle (walking's too: WalkingModule::stand_at).
+  const VirtualDofs& v = run.model->virtual_dofs();
+  const Vector2 heel(run.q[0][v.heel_x], run.q[0][v.heel_y]);
+  const double yaw = run.q[0][v.heel_yaw];
   const WalkingParameters& p = run.walking_parameters;
   DrawnFeet out;
   for (int side = 0; side < 2; ++side) {

@@ -15,6 +15,11 @@ namespace wbm {
 
 struct ScenarioRun;
 
+/// Index into `legs` (the first links of leg subtrees, UrdfImportOptions::legs) of the leg
+/// the model's frame `f` lies in (`f`, or a frame it hangs from: its parent frame, its parent
+/// body's or its body's, is named there), or -1.
+int leg_of(const Model& model, int f, const std::vector<std::string>& legs);
+
 /// Where the report draws the two feet at one instant: each foot's place on the floor and
 /// how high it is lifted [m] (index 0 left, 1 right).
 struct DrawnFeet {
@@ -23,22 +28,22 @@ struct DrawnFeet {
 };
 
 /// The feet at time `t` [s] as the report draws them (the footprints and the posed legs):
-/// standing beside the heel of the first cycle (the real heel while walking), then each footstep landing at its time after a
-/// swing of the walk's step_duration, moved along the floor by a smooth step (3 s^2 - 2 s^3
-/// of the swing's share s) and lifted by 0.2 max_step_length sin(pi s).
+/// standing beside the heel of the first cycle, then each footstep landing at its time
+/// after a swing of the walk's step_duration, moved along the floor by a smooth step
+/// (3 s^2 - 2 s^3 of the swing's share s) and lifted by 0.2 max_step_length sin(pi s).
 DrawnFeet drawn_feet(const ScenarioRun& run, double t);
 
 /// The controller treats a URDF robot's locked legs as rigid: welded at joint value 0 to
-/// the link they hang from (the root link, or e.g. a pelvis below the waist joints) (the paper's model has no legs; below the heel, the robot's own walking
-/// controller moves them). Drawn so, they swing with the upper body's lean, shift and
-/// height, and slide over the floor while the feet step. LegPoser poses them for the report
-/// instead: the same URDF imported with the legs free, and for each drawn sample a damped
-/// least-squares inverse kinematics of the leg joints (within their position limits,
-/// starting from the previous sample's solution) puts each leg's last link where it stands
-/// on its foot, relative to the foot as in the upright pose with straight legs
-/// (upright_base_configuration). A foot out of the leg's reach leaves the leg stretched
-/// towards it (position_miss(), angle_miss()). Only the drawing changes: the trajectory, the centre of mass
-/// and the controller keep the locked legs.
+/// the link they hang from (the root link, or a pelvis below the waist joints). The paper's
+/// model has no legs; below the heel, the robot's own walking controller moves them. Drawn
+/// so, they swing with the upper body's lean, shift and height, and slide over the floor
+/// while the feet step. LegPoser poses them for the report instead: the same URDF imported
+/// with the legs free, and for each drawn sample a Levenberg-Marquardt inverse kinematics of
+/// the leg joints (within their position limits, starting from the previous sample's
+/// solution) puts each leg's last link where it stands on its foot, relative to the foot as
+/// in the upright pose with straight legs (upright_base_configuration). A foot out of reach
+/// is missed as little as the legs allow (position_miss(), angle_miss()). Only the drawing
+/// changes: the trajectory, the centre of mass and the controller keep the locked legs.
 class LegPoser {
  public:
   /// Usable (usable()) when the scenario's robot is a URDF with exactly two locked legs,

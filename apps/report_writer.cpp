@@ -99,12 +99,7 @@ std::string render_report(const ScenarioRun& run) {
     if (!t.frame.empty()) used.insert(model.frame_index(t.frame));
   // On small models every non-body frame but those of locked legs (a 0.26 m robot's ten leg
   // links each had an arrow and a legend entry, no task using them).
-  const std::set<std::string> legs(s.urdf_options.legs.begin(), s.urdf_options.legs.end());
-  auto in_a_leg = [&](int f) {
-    for (int g = f; g >= 0; g = model.frame(g).parent)
-      if (legs.count(model.frame(g).name)) return true;
-    return false;
-  };
+  auto in_a_leg = [&](int f) { return leg_of(model, f, s.urdf_options.legs) >= 0; };
   for (int f = 0; f < model.num_frames(); ++f)
     if (used.count(f) || (!model.is_body_frame(f) && model.num_frames() < 40 && !in_a_leg(f)))
       frames.push_back(f);

@@ -63,10 +63,7 @@ WalkingModule::WalkingModule(const Model& model, const FootGeometry& feet, const
   if (!std::isfinite(p.heel_stop_time)) throw ConfigError("walking: heel_stop_time must be finite");
   for (int k = 0; k < 3; ++k)
     heel_deceleration_[k] = p.heel_stop_time > 0.0 ? model.max_speeds()[heel_dofs_[k]] / p.heel_stop_time : 0.0;
-  const Vector2 heel(model.home()[v.heel_x], model.home()[v.heel_y]);
-  left_ = stance_target(true, heel, model.home()[v.heel_yaw]);
-  right_ = stance_target(false, heel, model.home()[v.heel_yaw]);
-  update_support();
+  stand_at(model.home());
 }
 
 FootPose WalkingModule::stance_target(bool left, const Vector2& heel, double yaw) const {
