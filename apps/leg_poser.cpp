@@ -122,7 +122,7 @@ LegPoser::LegPoser(const Scenario& scenario, const Model& model, double spacing)
   leg_frame_of_.assign(model.num_frames(), -1);
   for (int f = 0; f < model.num_frames(); ++f)
     if (leg_of(model, f, legs) >= 0) leg_frame_of_[f] = lm.find_frame(model.frame(f).name);
-  positions_.assign(model.num_frames(), Vector3::Zero());
+  poses_.assign(model.num_frames(), Transform());
 
   // The upright pose with straight legs: the heel at the origin facing x, each foot beside
   // it; the legs' ends stand on their feet as there (the locked legs are that pose).
@@ -244,16 +244,22 @@ void LegPoser::pose(const Data& data, const DrawnFeet& feet) {
     }
   }
   forward_kinematics(lm, *leg_data_, q_leg_);  // the kept configuration's poses
-  // Each leg frame's position relative to the root link, from the posed leg model.
+  // Each leg frame's pose relative to the root link, from the posed leg model.
   const Data& ld = *leg_data_;
   const Transform X_W_leg = X_WR * frame_pose(lm, ld, leg_root_).inverse();
   for (int f = 0; f < model_->num_frames(); ++f)
-    if (leg_frame_of_[f] >= 0) positions_[f] = X_W_leg * frame_position(lm, ld, leg_frame_of_[f]);
+    if (leg_frame_of_[f] >= 0) poses_[f] = X_W_leg * frame_pose(lm, ld, leg_frame_of_[f]);
+}
+
+std::optional<Transform> LegPoser::leg_frame_pose(int frame) const {
+  if (!usable_ || leg_frame_of_[frame] < 0) return std::nullopt;
+  return poses_[frame];
 }
 
 std::optional<Vector3> LegPoser::leg_frame_position(int frame) const {
-  if (!usable_ || leg_frame_of_[frame] < 0) return std::nullopt;
-  return positions_[frame];
+  const std::optional<Transform> X_WF = leg_frame_pose(frame);
+  if (!X_WF) return std::nullopt;
+  return X_WF->p;
 }
 
 }  // namespace wbm

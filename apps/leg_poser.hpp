@@ -57,8 +57,10 @@ class LegPoser {
   /// model) on `feet`.
   /// @pre usable()
   void pose(const Data& data, const DrawnFeet& feet);
-  /// Position [m] of the model's frame `frame` in the world after pose(), if the frame is
-  /// in a locked leg; else nullopt.
+  /// Pose of the model's frame `frame` in the world (X_WF, [m]) after pose(), if the frame
+  /// is in a locked leg; else nullopt.
+  std::optional<Transform> leg_frame_pose(int frame) const;
+  /// Its position p_WF [m]: leg_frame_pose()'s translation, or nullopt.
   std::optional<Vector3> leg_frame_position(int frame) const;
   /// After the last pose(): the largest distance [m] of a leg's last link from its place on
   /// its foot, and the largest angle [rad] it is turned from the foot's orientation there.
@@ -94,7 +96,7 @@ class LegPoser {
   Eigen::MatrixXd J6_;               ///< a frame Jacobian of the leg model (6 x its dofs)
   std::vector<double> seed_;          ///< per leg dof: where a solve starts afresh
   Eigen::VectorXd q_leg_;             ///< the leg model's configuration (kept between samples)
-  std::vector<Vector3> positions_;    ///< per model frame, after pose(): leg frames' positions
+  std::vector<Transform> poses_;      ///< per model frame, after pose(): leg frames' poses X_WF
   double residual_ = 0.0;  ///< the larger of the misses, the angle times 0.5 m (the solve's stop test)
   double position_miss_ = 0.0, angle_miss_ = 0.0;
 };

@@ -134,7 +134,9 @@ std::string render_report(const ScenarioRun& run) {
       for (int i = 0; i < 3; ++i) bp.push_back(micrometres(p[i]));
     }
     for (size_t j = 0; j < frames.size(); ++j) {
-      const Transform X = frame_pose(model, d, frames[j]);
+      // A task's frame in a locked leg: where the drawn leg puts it (its task error, in
+      // the plots, is the controller's, on the locked leg; a task note says so).
+      const Transform X = legs_poser.leg_frame_pose(frames[j]).value_or(frame_pose(model, d, frames[j]));
       const Vector3 axis = X.R * drawn_axis[j];
       for (int i = 0; i < 3; ++i) {
         fp.push_back(X.p[i]);

@@ -1324,6 +1324,61 @@ TEST(Scenarios, LockedLegsAreDrawnStandingOnTheFeet) {
   EXPECT_FALSE(LegPoser(shipped("fig7_top_right_hand"), paper, 0.18).usable());
 }
 
+// A task on a frame in a locked leg: the controller moves the leg with the upper body (it
+// is rigid there), the 3D view draws the leg standing on its foot, and the task's frame with
+// the drawn leg, not where the locked leg has it; a task note says so.
+TEST(Scenarios, ATaskOnALockedLegsFrameIsDrawnWithTheDrawnLeg) {
+  auto scenario_text = [](const std::string& frame, const std::string& reference) {
+    return "name: g1_leg_task\nrobot: {urdf: '" + wbm_test::shipped_model("g1_29dof").path +
+           "', root: pelvis, legs: [left_hip_pitch_link, right_hip_pitch_link]}\nduration: 1\n" +
+           "frozen: [heel_x, heel_y, heel_yaw]\nfeet: {length: 0.2, width: 0.08, left_frame: left_ankle_roll_link, " +
+           "right_frame: right_ankle_roll_link}\ntasks: [{name: knee, type: position, frame: " + frame +
+           (reference.empty() ? "" : ", reference: " + reference) +
+           "}, {name: hand, type: position, frame: left_rubber_hand}]\n" +
+           "timeline: [{t: 0, activate: [knee, hand], relative_targets: {knee: [0.1, 0, 0.1], hand: [0.1, 0, 0.1]}}]\n";
+  };
+  const auto run = run_scenario(parse_scenario(scenario_text("left_knee_link", ""), "leg_task.yaml", "."));
+  const nlohmann::json notes = summarize(*run)["task_notes"];
+  ASSERT_EQ(notes.size(), 1u) << notes.dump();
+  EXPECT_NE(notes[0].get<std::string>().find("task 'knee': its frame 'left_knee_link' is in the locked leg from "
+                                              "'left_hip_pitch_link'"),
+            std::string::npos)
+      << notes.dump();
+  const nlohmann::json report = report_data(*run);
+  std::map<std::string, int> node;
+  const auto& nodes = report["robot"]["bodies"];
+  for (size_t i = 0; i < nodes.size(); ++i) node[nodes[i]["name"]] = static_cast<int>(i);
+  int j = -1;  // the knee's index among the drawn frames
+  for (size_t i = 0; i < report["robot"]["frames"].size(); ++i)
+    if (report["robot"]["frames"][i]["name"] == "left_knee_link") j = static_cast<int>(i);
+  ASSERT_GE(j, 0);
+  const Model& model = *run->model;
+  const int knee = model.frame_index("left_knee_link");
+  Data data(model);
+  double locked_apart = 0.0;  // how far the locked knee is from the drawn one
+  for (size_t k = 0; k < report["time"].size(); ++k) {
+    const nlohmann::json& fp = report["frame_pos"][k];
+    const Vector3 drawn_frame(fp[3 * j].get<double>(), fp[3 * j + 1].get<double>(), fp[3 * j + 2].get<double>());
+    // The link's drawn origin is rounded to micrometres.
+    EXPECT_LE((drawn_frame - drawn_position(report, static_cast<int>(k), node["left_knee_link"])).norm(), 1e-6) << k;
+    const double t = report["time"][k].get<double>();
+    const auto cycle = std::lower_bound(run->time.begin(), run->time.end(), t - 1e-12) - run->time.begin();
+    forward_kinematics(model, data, run->q[cycle]);
+    locked_apart = std::max(locked_apart, (frame_pose(model, data, knee).p - drawn_frame).norm());
+  }
+  EXPECT_GT(locked_apart, 0.01);  // the check above tells the two apart
+  // Relative to a frame in the other leg: noted too; tasks on the arms and the torso are not.
+  const auto relative = run_scenario(parse_scenario(scenario_text("left_rubber_hand", "right_ankle_roll_link"),
+                                                    "leg_task.yaml", "."));
+  const nlohmann::json relative_notes = summarize(*relative)["task_notes"];
+  ASSERT_EQ(relative_notes.size(), 1u) << relative_notes.dump();
+  EXPECT_NE(relative_notes[0].get<std::string>().find("its reference 'right_ankle_roll_link' is in the locked leg from "
+                                                       "'right_hip_pitch_link'"),
+            std::string::npos);
+  EXPECT_EQ(summarize(*run_scenario(parse_scenario(scenario_text("torso_link", ""), "leg_task.yaml", ".")))["task_notes"],
+            nlohmann::json::array());
+}
+
 // Balance without walking: the report draws the feet the centre of mass is kept over (both
 // feet at their place beside the heel, from the start) and the centre of mass on the ground.
 TEST(Scenarios, BalanceReportDrawsTheFeetAndTheCentreOfMass) {
