@@ -36,9 +36,11 @@ struct ModelSource {
   CLI::Option* pivot_option = nullptr;
   std::vector<double> root_rpy, upper_body_x_range, upper_body_y_range;
   std::vector<std::string> added_frames;
+  std::vector<CLI::Option*> import_options;  ///< every option but the file: the URDF import's
 
   void add_to(CLI::App& app) {
-    app.add_option("file", file, "URDF file (default: the built-in paper model)");
+    const size_t before = app.get_options().size();
+    CLI::Option* file_option = app.add_option("file", file, "URDF file (default: the built-in paper model)");
     app.add_option("--root", urdf.root, "URDF link that becomes the upper body (default: the URDF root)");
     app.add_option("--legs", urdf.legs, "first link of each leg subtree")->delimiter(',');
     app.add_flag("--drop-legs", drop_legs, "remove the legs instead of locking them at zero");
@@ -73,11 +75,21 @@ struct ModelSource {
     app.add_option("--add-frame", added_frames,
                    "a frame to add, NAME:PARENT:X,Y,Z[:ROLL,PITCH,YAW], fixed to the frame PARENT at that position "
                    "[m] and orientation [rad] in it, e.g. a hand point at a forearm's end; repeatable");
+    const std::vector<CLI::Option*> all = app.get_options();
+    for (size_t i = before; i < all.size(); ++i)
+      if (all[i] != file_option) import_options.push_back(all[i]);
   }
 
   wbm::Model load() {
-    if (file.empty() && !added_frames.empty())
-      throw wbm::ConfigError("--add-frame: an option of the URDF import; the built-in paper model takes none (give a URDF file)");
+    if (file.empty()) {  // options of the URDF import: silently ignored, they would hide a missing file
+      std::string given;
+      int count = 0;
+      for (const CLI::Option* option : import_options)
+        if (option->count() > 0) given += (count++ == 0 ? "" : ", ") + option->get_name();
+      if (count > 0)
+        throw wbm::ConfigError(given + (count == 1 ? ": an option" : ": options") +
+                               " of the URDF import; the built-in paper model takes none (give a URDF file)");
+    }
     if (file.empty()) return wbm::make_paper_model();
     // NaN is the library's "from the legs"; typed on the command line it is a mistake.
     if (root_height_option->count() > 0 && std::isnan(urdf.root_height))

@@ -435,6 +435,20 @@ TEST(Cli, ModelFkWithAddedFrames) {
                    "--add-frame: an option of the URDF import; the built-in paper model takes none (give a URDF file)");
 }
 
+// Every URDF import option without a URDF file is an error, not silently ignored (`model
+// info --legs nope_link` printed the paper model and exited 0: a forgotten file name looked
+// like a working command).
+TEST(Cli, UrdfOptionsWithoutAUrdfFail) {
+  expect_cli_error("model info --legs nope_link",
+                   "--legs: an option of the URDF import; the built-in paper model takes none (give a URDF file)");
+  expect_cli_error("model export --root torso --drop-legs --default-limits",
+                   "--root, --drop-legs, --default-limits: options of the URDF import; the built-in paper model takes "
+                   "none (give a URDF file)");
+  expect_cli_error("model fk --root-rpy 0,0,1 --json", "--root-rpy: an option of the URDF import");
+  // The subcommands' own options stay allowed on the built-in model.
+  EXPECT_NO_THROW(parse(wbm_cli("model fk --fixed-base --frames l_hand_ref --json")));
+}
+
 TEST(Cli, UnknownFrameFails) {
   expect_cli_error("model fk --frames no_such_frame --json", "no frame named 'no_such_frame'");
 }
