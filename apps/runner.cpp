@@ -404,20 +404,20 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
     run->task_notes.insert(run->task_notes.end(), target_notes.begin(), target_notes.end());
     // A task on (or relative to) a frame in a locked leg: the controller moves that frame
     // with the upper body, never by the leg's joints, and the report draws the leg elsewhere.
-    if (s.urdf_options.leg_mode == LegMode::kLock)
-      for (const ScenarioTask& t : s.tasks)
-        for (const std::string& name : {t.frame, t.reference}) {
-          const int f = name.empty() ? -1 : model.find_frame(name);
-          const int leg = f < 0 ? -1 : leg_of(model, f, s.urdf_options.legs);
-          if (leg < 0) continue;
-          run->task_notes.push_back(
-              "task '" + t.name + "': its " + (name == t.frame ? "frame" : "reference") + " '" + name +
-              "' is in the locked leg from '" + s.urdf_options.legs[leg] +
-              "': the controller holds that leg rigid at joint value 0 (robot.legs), so the task moves it with the "
-              "upper body only, and the 3D view, which draws the leg standing on its foot, draws the frame there "
-              "(the task errors are the controller's)");
-          break;
-        }
+    // (Dropped legs have no frames left to name.)
+    for (const ScenarioTask& t : s.tasks)
+      for (const std::string& name : {t.frame, t.reference}) {
+        const int f = name.empty() ? -1 : model.find_frame(name);
+        const int leg = f < 0 ? -1 : leg_of(model, f, s.urdf_options.legs);
+        if (leg < 0) continue;
+        run->task_notes.push_back(
+            "task '" + t.name + "': its " + (name == t.frame ? "frame" : "reference") + " '" + name +
+            "' is in the locked leg from '" + s.urdf_options.legs[leg] +
+            "': the controller holds that leg rigid at joint value 0 (robot.legs), so the task moves it with the "
+            "upper body only, and the 3D view, which draws the leg standing on its foot, draws the frame there "
+            "(the task errors are the controller's)");
+        break;
+      }
     // Balance or walking on a URDF robot without its feet: the default ones are ASIMO-like
     // (ROBOTIS OP3's feet are 12 cm long; "11 cm inside the feet" meant nothing there).
     bool supported = s.balance.enabled || s.walking.enabled;

@@ -89,8 +89,8 @@ struct ModelSource {
       if (count > 0)
         throw wbm::ConfigError(given + (count == 1 ? ": an option" : ": options") +
                                " of the URDF import; the built-in paper model takes none (give a URDF file)");
+      return wbm::make_paper_model();
     }
-    if (file.empty()) return wbm::make_paper_model();
     // NaN is the library's "from the legs"; typed on the command line it is a mistake.
     if (root_height_option->count() > 0 && std::isnan(urdf.root_height))
       throw wbm::ConfigError("--root-height: expected a finite height >= 0 m, got nan");
