@@ -908,6 +908,36 @@ TEST(Solver, SpeedScalingAndJerkLimit) {
   EXPECT_TRUE(st.has(kNullSpaceSpeedScaled) || st.has(kNullSpaceJerkLimited));
 }
 
+// Every row a joint row on a dof of its own (all eliminated and isolated, none kept in A):
+// each is a block of its own for the speed scaling, so a row driven past its dof's speed
+// limit is scaled alone and the others keep their rates. With as many rows as the solver
+// holds, the block count is one more than the rows (the kept rows' empty block): the scales
+// were written one past the end of a buffer of m entries, which the sanitizer build (CTest
+// clang_build_and_unit_tests) reports as a heap overflow.
+TEST(Solver, EveryRowIsolatedIsSpeedScaledAlone) {
+  const Model model = make_paper_model();
+  const int n = model.num_dofs();
+  const char* names[] = {"l_elbow", "r_elbow", "head_pan", "r_hand_rot"};
+  constexpr int m = 4;
+  WholeBodySolver solver(model, m);
+  const Mask free = Mask::Constant(n, true);
+  MatrixXd J = MatrixXd::Zero(m, n);
+  VectorXd xdot(m);
+  for (int i = 0; i < m; ++i) {
+    J(i, model.dof_index(names[i])) = 1.0;
+    const double vmax = model.dof(model.dof_index(names[i])).max_speed;
+    xdot[i] = i % 2 == 0 ? 3.0 * vmax : 0.5 * vmax;  // rows 0 and 2 beyond their limits
+  }
+  const SolverStatus st = solver.solve(J, xdot, VectorXd::Zero(n), free, 0.001);
+  EXPECT_TRUE(st.ok());
+  EXPECT_TRUE(st.has(kTaskSpeedLimited));
+  for (int i = 0; i < m; ++i) {
+    const int d = model.dof_index(names[i]);
+    EXPECT_NEAR(solver.output().qdot_task[d], std::min(xdot[i], model.dof(d).max_speed), 1e-12) << names[i];
+  }
+  EXPECT_NEAR(solver.output().task_scale, 1.0 / 3.0, 1e-12);
+}
+
 // Where the task part alone crosses a speed limit it is scaled to it, and the null-space
 // part is scaled to fit beside it as anywhere else: q_dot is continuous in the task
 // velocity across that point. (Dropping the null space there made q_dot jump by the whole
