@@ -9,7 +9,7 @@ if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 packages=(build-essential cmake pkg-config git
   libeigen3-dev liburdfdom-dev libtinyxml-dev libconsole-bridge-dev
   liborocos-kdl-dev libkdl-parser-dev libcli11-dev libyaml-cpp-dev nlohmann-json3-dev
-  libgtest-dev libgmock-dev libbenchmark-dev python3 chromium valgrind clang)
+  libgtest-dev libgmock-dev libbenchmark-dev python3 chromium valgrind clang libclang-rt-14-dev)
 # Node.js: Debian's packages unless a node/npm is already installed (e.g. NodeSource's).
 command -v node >/dev/null || packages+=(nodejs)
 command -v npm >/dev/null || packages+=(npm)

@@ -8,6 +8,8 @@
 #include <memory>
 #include <random>
 #include <sstream>
+#include <thread>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -132,6 +134,63 @@ Command standing_command(const wbm_test::ShippedModel& entry, const Model& model
     cmd.free_dofs[i] = false;
   entry.freeze_base(model, cmd.free_dofs);
   return cmd;
+}
+
+/// A controller with balance on `model` through `cycles` cycles of seeded random commands
+/// (targets moved and elements switched every 250 cycles, some out of reach); returns the
+/// final q followed by the sum of q over all cycles, which differs if any cycle did.
+VectorXd seeded_balance_run(const wbm_test::ShippedModel& entry, const Model& model, unsigned seed, int cycles) {
+  Controller c(model);
+  c.add_task(std::make_unique<PositionTask>(model, "l_hand", entry.left_hand));
+  c.add_task(std::make_unique<AxisTask>(model, "l_grasp", entry.left_hand));
+  c.add_task(std::make_unique<PositionTask>(model, "r_hand", entry.right_hand));
+  c.add_task(std::make_unique<AxisTask>(model, "r_grasp", entry.right_hand));
+  c.add_task(std::make_unique<CenterOfMassTask>(model, "com", "heel"));
+  c.reset(entry.start(model));
+  Command cmd = standing_command(entry, model, c);
+  cmd.external_velocity = VectorXd::Zero(model.num_dofs());
+  BalanceModule balance(model, std::make_unique<CenterOfMassCentering>(4.0, 0.0));
+  const SupportPolygon support = SupportPolygon::standing(Vector2::Zero(), 0.0, balance.feet());
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(-0.4, 0.4);
+  std::bernoulli_distribution coin(0.7);
+  VectorXd sum = VectorXd::Zero(model.num_dofs());
+  for (int k = 0; k < cycles; ++k) {
+    if (k % 250 == 0) {
+      for (int i = 0; i < cmd.task_active.size(); ++i) cmd.task_active[i] = coin(rng);
+      for (int i : {0, 1, 2, 6, 7, 8}) cmd.targets[i] = c.values()[i] + u(rng);
+    }
+    balance.update(c.data(), support, 0.001, cmd);
+    c.update(cmd, 0.001);
+    sum += c.q();
+  }
+  VectorXd out(2 * model.num_dofs());
+  out << c.q(), sum;
+  return out;
+}
+
+// One Model serves many controllers (the Model/Data split: everything a cycle writes lives
+// in the controller's Data and buffers): four controllers with balance run at once in
+// threads on one shared Model, and each ends exactly where the same run alone ends, bit for
+// bit, in every cycle (the sum of q over all cycles). State kept in the Model, or in
+// anything static, would be written by several threads at once and make them differ.
+TEST(Controller, ControllersSharingOneModelRunInThreadsAsAlone) {
+  const wbm_test::ShippedModel& entry = wbm_test::shipped_model("g1_29dof");
+  const Model model = entry.load();
+  constexpr int kThreads = 4, kCycles = 3000;
+  std::vector<VectorXd> alone(kThreads), together(kThreads);
+  for (int i = 0; i < kThreads; ++i) alone[i] = seeded_balance_run(entry, model, 40 + i, kCycles);
+  std::vector<std::thread> threads;
+  for (int i = 0; i < kThreads; ++i)
+    threads.emplace_back([&, i] { together[i] = seeded_balance_run(entry, model, 40 + i, kCycles); });
+  for (std::thread& t : threads) t.join();
+  for (int i = 0; i < kThreads; ++i) {
+    ASSERT_EQ(together[i].size(), alone[i].size());
+    EXPECT_EQ((together[i] - alone[i]).cwiseAbs().maxCoeff(), 0.0) << "thread " << i;
+    EXPECT_TRUE(together[i].allFinite()) << "thread " << i;
+  }
+  // The seeds give different runs, so that a thread computing another's run would show.
+  for (int i = 1; i < kThreads; ++i) EXPECT_GT((alone[i] - alone[0]).cwiseAbs().maxCoeff(), 1e-3) << i;
 }
 
 /// Targets from a random reachable configuration near home; start at home (the base upright
