@@ -83,9 +83,10 @@ WholeBodySolver::WholeBodySolver(const Model& model, int max_rows, const SolverP
   for (Eigen::VectorXd* v : {&block_v_, &block_w_, &block_z_, &block_lambda_, &block_mu2_, &block_sum1_,
                              &block_sum2_, &block_change_, &block_old_, &elim_mu2_})
     v->setZero(m);
-  // A scale per block of the speed scaling: the kept rows' blocks (one, empty, when every
-  // row is eliminated) and one per isolated row, so at most m + 1.
-  block_scale_.setZero(m + 1);
+  // block_sum1_ also holds a scale per block of the speed scaling (scale_task_blocks): the
+  // kept rows' blocks (one, empty, when every row is eliminated) and one per isolated row,
+  // so up to m + 1.
+  block_sum1_.setZero(m + 1);
   row_block_.assign(m, -1);
   dof_block_.assign(n, -1);
   braking_time_per_rate_.resize(n);
@@ -461,7 +462,7 @@ double WholeBodySolver::scale_task_blocks() {
   // Each block's task part scaled to the speed limits on its own (blocks share no dof, so
   // each keeps its direction), not every block by the most limited one's factor.
   const Eigen::VectorXd& vmax = model_.max_speeds();
-  double* scale = block_scale_.data();
+  double* scale = block_sum1_.data();  // m + 1 entries
   std::fill_n(scale, task_blocks_, 1.0);
   for (int i = 0; i < model_.num_dofs(); ++i) {
     const double v = std::abs(out_.qdot_task[i]);

@@ -227,7 +227,6 @@ class WholeBodySolver {
   bool row_damping_zero_ = true;  // every entry of out_.row_damping is zero
   std::vector<int> dof_block_;  // per dof: its block of rows for the speed scaling (-1: none)
   int task_blocks_ = 1;         // the number of those blocks in the last resolve() (<= m + 1)
-  Eigen::VectorXd block_scale_;  // per block of dof_block_: its task part's speed scale
   Mask free_;                 // b_C, plus dofs frozen at their limits
   Mask frozen_at_limit_;      // the dofs frozen at their limits in the last solve
   bool any_frozen_at_limit_ = false;
