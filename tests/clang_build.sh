@@ -7,8 +7,9 @@
 # anywhere the unit tests reach ends the test with the sanitizer's report: the solver's
 # hand-written kernels index raw buffers, where such a bug need not show in results (the
 # first run found a scale written one past its buffer). -O1, as the sanitizers advise. Not
-# the benchmarks (GCC's build runs their short mode; built here as well they took 2 of the
-# 7.5 minutes this took on two cores) nor the valgrind analyses, which read GCC's build.
+# the benchmarks (GCC's build runs their short mode; built and run here as well they took
+# about 1.5 of the 7.4 minutes this took on two cores) nor the valgrind analyses, which read
+# GCC's build.
 # Usage: clang_build.sh SOURCE_DIR BUILD_DIR
 set -euo pipefail
 src=$1

@@ -137,8 +137,8 @@ Command standing_command(const wbm_test::ShippedModel& entry, const Model& model
 }
 
 /// A controller with balance on `model` through `cycles` cycles of seeded random commands
-/// (targets moved and elements switched every 250 cycles, some out of reach); returns the
-/// final q followed by the sum of q over all cycles, which differs if any cycle did.
+/// (the hand targets moved by up to 0.4 m per axis and the rows switched every 250 cycles);
+/// returns the final q followed by the sum of q over all cycles, which differs if any cycle did.
 VectorXd seeded_balance_run(const wbm_test::ShippedModel& entry, const Model& model, unsigned seed, int cycles) {
   Controller c(model);
   c.add_task(std::make_unique<PositionTask>(model, "l_hand", entry.left_hand));
