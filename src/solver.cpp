@@ -80,8 +80,8 @@ WholeBodySolver::WholeBodySolver(const Model& model, int max_rows, const SolverP
   out_.qdot_task.setZero(n);
   out_.qdot_null.setZero(n);
   out_.row_damping.setZero(m);
-  for (Eigen::VectorXd* v : {&block_v_, &block_w_, &block_z_, &block_lambda_, &block_mu2_, &block_sum1_,
-                             &block_sum2_, &block_change_, &block_old_, &elim_mu2_})
+  for (Eigen::VectorXd* v : {&block_v_, &block_w_, &block_z_, &block_lambda_, &block_mu2_, &block_sum2_,
+                             &block_change_, &block_old_, &elim_mu2_})
     v->setZero(m);
   // block_sum1_ also holds a scale per block of the speed scaling (scale_task_blocks): the
   // kept rows' blocks (one, empty, when every row is eliminated) and one per isolated row,
