@@ -342,10 +342,10 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
                                               feet);
   std::unique_ptr<WalkingModule> walking;
   if (s.walking.enabled) {
-    // Step widths, length and duration not given: the defaults (the paper model's) scaled
-    // to this robot's feet and height, so that NAO (feet 0.10 m apart, 0.34 m tall at the
-    // root) and H1 (0.41 m, 1.04 m) place their feet where they stand and step as far as
-    // their legs reach.
+    // Step widths, length, duration and position tolerance not given: the defaults (the
+    // paper model's) scaled to this robot's feet and height, so that NAO (feet 0.10 m apart,
+    // 0.34 m tall at the root) and H1 (0.41 m, 1.04 m) place their feet where they stand and
+    // step as far as their legs reach.
     WalkingParameters p = s.walking.parameters;
     std::string scaled_fields;  // those not given, for an error: the user did not write them
     try {
@@ -361,6 +361,7 @@ std::unique_ptr<ScenarioRun> run_scenario(const Scenario& s, const RunOptions& o
         text << (text.tellp() > 0 ? ", " : "") << name << " " << *from;
       }
       scaled_fields = text.str();
+      if (!s.walking.tolerance_given) p.position_tolerance = scaled.position_tolerance;  // > 0: no error to explain
       walking = std::make_unique<WalkingModule>(model, feet, p);
       walking->stand_at(c.q());  // beside the start's heel (`initial` may move it), not the home pose's
       run->walking_parameters = p;

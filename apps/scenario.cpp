@@ -319,7 +319,11 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
   if (const YAML::Node walking = root["walking"]) {
     WalkingParameters& w = s.walking.parameters;
     s.walking.line = r.line(walking);
-    r.only(walking, "walking", {"enabled", "trigger_on_joint_limit", "cost_threshold", "stall_time", "error_tolerance", "trigger_time",
+    if (walking["error_tolerance"])  // one number for metres and radians before 2026-12-03
+      r.fail(walking["error_tolerance"], "walking.error_tolerance",
+             "replaced by position_tolerance [m] (scaled to the robot's height unless given) and angle_tolerance [rad]");
+    r.only(walking, "walking", {"enabled", "trigger_on_joint_limit", "cost_threshold", "stall_time", "position_tolerance",
+                                "angle_tolerance", "trigger_time",
                                 "max_step_length", "max_step_width", "min_step_width", "max_step_turn", "step_duration",
                                 "converged_speed", "converge_time", "feet_tolerance", "max_steps", "max_walks",
                                 "heel_stop_time"});
@@ -327,14 +331,17 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
     if (s.walking.enabled) no_fixed_base(walking["enabled"], "walking.enabled", "walking");
     if (walking["trigger_on_joint_limit"]) w.trigger_on_joint_limit = r.boolean(walking["trigger_on_joint_limit"], "walking.trigger_on_joint_limit");
     const std::vector<std::pair<const char*, double*>> numbers = {
-        {"cost_threshold", &w.cost_threshold}, {"stall_time", &w.stall_time}, {"error_tolerance", &w.error_tolerance},
-        {"trigger_time", &w.trigger_time},
+        {"cost_threshold", &w.cost_threshold}, {"stall_time", &w.stall_time}, {"trigger_time", &w.trigger_time},
         {"max_step_length", &w.max_step_length}, {"max_step_width", &w.max_step_width},
         {"min_step_width", &w.min_step_width}, {"max_step_turn", &w.max_step_turn}, {"step_duration", &w.step_duration},
         {"converged_speed", &w.converged_speed}, {"converge_time", &w.converge_time}, {"feet_tolerance", &w.feet_tolerance},
         {"heel_stop_time", &w.heel_stop_time}};
     for (const auto& [key, slot] : numbers)
       if (walking[key]) *slot = r.number(walking[key], std::string("walking.") + key);
+    if (walking["position_tolerance"])
+      w.position_tolerance = r.positive(walking["position_tolerance"], "walking.position_tolerance");
+    if (walking["angle_tolerance"]) w.angle_tolerance = r.positive(walking["angle_tolerance"], "walking.angle_tolerance");
+    s.walking.tolerance_given = static_cast<bool>(walking["position_tolerance"]);
     s.walking.min_width_given = static_cast<bool>(walking["min_step_width"]);
     s.walking.max_width_given = static_cast<bool>(walking["max_step_width"]);
     s.walking.length_given = static_cast<bool>(walking["max_step_length"]);

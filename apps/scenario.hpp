@@ -78,6 +78,7 @@ struct WalkingSettings {
   /// Which of the scaled fields the file gives; the others the runner takes from
   /// scaled_walking_parameters (the defaults scaled to the robot's feet and height).
   bool min_width_given = false, max_width_given = false, length_given = false, duration_given = false;
+  bool tolerance_given = false;  ///< position_tolerance (scaled to the robot when not given)
   int line = 0;
 };
 

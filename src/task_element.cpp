@@ -1,5 +1,6 @@
 #include "wbm/task_element.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "wbm/errors.hpp"
@@ -7,10 +8,22 @@
 namespace wbm {
 
 TaskElement::TaskElement(std::string name, int dim, int target_dim, TargetKind kind, double target_period)
-    : name_(std::move(name)), target_period_(target_period), dim_(dim), target_dim_(target_dim), kind_(kind) {
+    : name_(std::move(name)),
+      row_units_(static_cast<size_t>(std::max(dim, 0)), RowUnit::kLength),
+      target_period_(target_period),
+      dim_(dim),
+      target_dim_(target_dim),
+      kind_(kind) {
   if (!std::isfinite(target_period) || target_period < 0.0)
     throw ConfigError("task element '" + name_ + "': target period must be finite and >= 0, got " +
                       std::to_string(target_period));
+}
+
+void TaskElement::set_row_unit(int row, RowUnit unit) {
+  if (row < 0 || row >= dim_)
+    throw ConfigError("task element '" + name_ + "': row " + std::to_string(row) + " of " + std::to_string(dim_) +
+                      " has no unit to set");
+  row_units_[static_cast<size_t>(row)] = unit;
 }
 
 void TaskElement::set_gain(double gain) {

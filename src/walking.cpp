@@ -5,6 +5,7 @@
 #include <cmath>
 #include <sstream>
 #include <string>
+#include <tuple>
 
 #include "wbm/errors.hpp"
 
@@ -27,6 +28,7 @@ WalkingParameters scaled_walking_parameters(const Model& model, const FootGeomet
   const double height = ub_z >= 0 ? model.dof(ub_z).upper : 0.0;
   if (std::isfinite(height) && height > 0.05) {
     p.max_step_length *= height / kDefaultWalkingHeight;
+    p.position_tolerance *= height / kDefaultWalkingHeight;
     p.step_duration *= std::sqrt(height / kDefaultWalkingHeight);
   }
   return p;
@@ -45,6 +47,17 @@ WalkingModule::WalkingModule(const Model& model, const FootGeometry& feet, const
         p.converged_speed > 0 && p.converge_time >= 0 && p.feet_tolerance > 0 && p.max_steps > 0 && p.max_walks > 0 &&
         p.trigger_time >= 0))
     throw ConfigError("walking: step limits, durations, tolerances and counts must be positive");
+  // Errors are counted in tolerances (update): a zero tolerance would divide by zero. A
+  // scenario's walking block names them; ConfigError's text says which.
+  for (const auto& [value, name, unit] : {std::tuple{p.position_tolerance, "position_tolerance", "m"},
+                                          std::tuple{p.angle_tolerance, "angle_tolerance", "rad"}})
+    if (!(value > 0.0 && std::isfinite(value))) {
+      std::ostringstream msg;
+      msg << "walking: " << name << " must be finite and > 0 [" << unit << "], got " << value;
+      throw ConfigError(msg.str());
+    }
+  per_length_tolerance_ = 1.0 / p.position_tolerance;
+  per_angle_tolerance_ = 1.0 / p.angle_tolerance;
   if (!(p.max_step_width > p.min_step_width)) {
     std::ostringstream msg;
     msg << "walking: max_step_width (" << p.max_step_width << " m) must be above min_step_width (" << p.min_step_width
@@ -158,23 +171,31 @@ std::uint32_t WalkingModule::update_walk(const Controller& c, const ControllerSt
   const Eigen::VectorXd& q = c.q();
   const Vector2 heel(q[heel_dofs_[0]], q[heel_dofs_[1]]);
   const double yaw = q[heel_dofs_[2]];
+  // The largest error of an active row, in units of its tolerance (position_tolerance for
+  // lengths, angle_tolerance for angles): 1 is at the tolerance. The stall and progress tests
+  // below compare it only with itself, as ratios.
   double error = 0.0;
   const TaskStack& stack = c.tasks();
   const Mask& active = command.task_active;
-  for (int r = 0; r < stack.num_rows(); ++r)
-    if (active[r] && stack.activation()[r]) error = std::max(error, std::abs(stack.errors()[r]));
-  // The stack's errors are to the filtered targets; the distance still to go is what
-  // matters for the stall test, so use the largest distance to the commanded targets too.
   const Eigen::VectorXd& values = c.values();
   for (int e = 0; e < stack.num_elements(); ++e) {
-    if (stack.element(e).target_kind() != TargetKind::kVector) continue;
-    const int t0 = stack.target_offset(e), n = stack.element(e).target_dim();
+    const TaskElement& element = stack.element(e);
     const int r0 = stack.row_offset(e);
-    const double period = stack.element(e).target_period();  // angles: the short way round
-    for (int i = 0; i < n && i < stack.element(e).dim(); ++i) {
+    const auto per_tolerance = [&](int row) {
+      return element.row_unit(row) == RowUnit::kAngle ? per_angle_tolerance_ : per_length_tolerance_;
+    };
+    for (int i = 0; i < element.dim(); ++i)
+      if (active[r0 + i] && stack.activation()[r0 + i])
+        error = std::max(error, std::abs(stack.errors()[r0 + i]) * per_tolerance(i));
+    // The stack's errors are to the filtered targets; the distance still to go is what
+    // matters for the stall test, so use the largest distance to the commanded targets too.
+    if (element.target_kind() != TargetKind::kVector) continue;
+    const int t0 = stack.target_offset(e), n = element.target_dim();
+    const double period = element.target_period();  // angles: the short way round
+    for (int i = 0; i < n && i < element.dim(); ++i) {
       if (!active[r0 + i]) continue;
       const double d = command.targets[t0 + i] - values[t0 + i];
-      error = std::max(error, std::abs(period > 0.0 ? std::remainder(d, period) : d));
+      error = std::max(error, std::abs(period > 0.0 ? std::remainder(d, period) : d) * per_tolerance(i));
     }
   }
 
@@ -195,7 +216,7 @@ std::uint32_t WalkingModule::update_walk(const Controller& c, const ControllerSt
     if (given_up_) return flags | kWalkGivenUp;
     const bool limit = p_.trigger_on_joint_limit && last.has(kJointLimitClamped | kDofAtLimitFrozen);
     const bool cost = p_.cost_threshold > 0.0 && c.nullspace_cost() > p_.cost_threshold;
-    const bool wanted = error > p_.error_tolerance && (limit || cost || stalled);
+    const bool wanted = error > 1.0 && (limit || cost || stalled);
     trigger_timer_ = wanted ? trigger_timer_ + dt : 0.0;
     if (trigger_timer_ < p_.trigger_time || trigger_timer_ == 0.0) return flags;
     walking_ = true;

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <numbers>
 #include <set>
@@ -29,6 +30,10 @@
 #include "wbm/errors.hpp"
 #include "wbm/kinematics.hpp"
 #include "wbm/paper_model.hpp"
+#include "wbm/tasks/attitude_task.hpp"
+#include "wbm/tasks/axis_task.hpp"
+#include "wbm/tasks/com_task.hpp"
+#include "wbm/tasks/joint_task.hpp"
 #include "wbm/tasks/position_task.hpp"
 
 namespace {
@@ -671,6 +676,74 @@ TEST(Walking, AStallAloneStartsAWalkThatMoves) {
   EXPECT_LT(run->error.back()[run->element("hand")], 1e-3);
 }
 
+// Every shipped element says the unit of its rows: walking compares each row's error with
+// the tolerance of its unit.
+TEST(RowUnits, LengthsAndAnglesAsTheElementsRowsAre) {
+  const Model model = make_paper_model();
+  const auto units = [](const TaskElement& element) {
+    std::string text;
+    for (int row = 0; row < element.dim(); ++row) text += element.row_unit(row) == RowUnit::kAngle ? 'a' : 'l';
+    return text;
+  };
+  EXPECT_EQ(units(PositionTask(model, "p", "l_hand_ref")), "lll");
+  EXPECT_EQ(units(CenterOfMassTask(model, "c", "heel")), "lll");
+  EXPECT_EQ(units(AxisTask(model, "x", "l_hand_ref")), "aa");
+  EXPECT_EQ(units(AttitudeTask(model, "t", "l_hand_ref")), "aaa");
+  EXPECT_EQ(units(JointTask(model, "j", {"l_elbow", "upper_body_z", "heel_yaw", "heel_x"})), "alal");
+}
+
+/// Whether a walk starts within 3 s on the paper model while one joint row's target lies
+/// `beyond` its upper limit: the dof starts 1 mm or mrad below it and is clamped there, and the
+/// row's error stays at `beyond` (the null-space cost trigger off: near a limit it is high).
+bool walks_for_joint_error(const std::string& dof, double beyond, double position_tolerance, double angle_tolerance) {
+  const Model model = make_paper_model();
+  Controller c(model);
+  c.add_task(std::make_unique<JointTask>(model, "j", std::vector<std::string>{dof}), {3.0, 0.4, 2});
+  const int d = model.dof_index(dof);
+  Eigen::VectorXd q = model.home();
+  q[d] = model.dof(d).upper - 0.001;
+  c.reset(q);
+  Command cmd = c.make_command();
+  cmd.task_active.setConstant(true);
+  cmd.targets[0] = model.dof(d).upper + beyond;
+  WalkingParameters p;
+  p.cost_threshold = 0.0;
+  p.position_tolerance = position_tolerance;
+  p.angle_tolerance = angle_tolerance;
+  WalkingModule walking(model, FootGeometry{}, p);
+  ControllerStatus last;
+  for (int k = 0; k < 1500; ++k) {
+    if ((walking.update(c, last, k * 0.002, 0.002, cmd) & kWalkTriggered) != 0) return true;
+    last = c.update(cmd, 0.002);
+  }
+  return false;
+}
+
+// A row's error counts against the tolerance of its unit: 3 mrad left on the elbow (an
+// angle) starts a walk only with angle_tolerance below it, whatever position_tolerance is;
+// 3 mm left on upper_body_z (a length) only with position_tolerance below it. One tolerance
+// for both (error_tolerance) compared millimetres with radians.
+TEST(Walking, ARowsErrorCountsAgainstTheToleranceOfItsUnit) {
+  EXPECT_FALSE(walks_for_joint_error("l_elbow", 0.003, 0.005, 0.005));
+  EXPECT_TRUE(walks_for_joint_error("l_elbow", 0.003, 0.005, 0.002));
+  EXPECT_FALSE(walks_for_joint_error("l_elbow", 0.003, 0.001, 0.005));
+  EXPECT_FALSE(walks_for_joint_error("upper_body_z", 0.003, 0.005, 0.005));
+  EXPECT_TRUE(walks_for_joint_error("upper_body_z", 0.003, 0.002, 0.005));
+  EXPECT_FALSE(walks_for_joint_error("upper_body_z", 0.003, 0.005, 0.001));
+  for (const auto& [position, angle] : {std::pair{0.0, 0.005}, std::pair{0.005, -1.0}, std::pair{std::numeric_limits<double>::quiet_NaN(), 0.005}}) {
+    WalkingParameters p;
+    p.position_tolerance = position;
+    p.angle_tolerance = angle;
+    try {
+      WalkingModule(make_paper_model(), FootGeometry{}, p);
+      ADD_FAILURE() << position << " " << angle << " accepted";
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find(position > 0.0 ? "angle_tolerance" : "position_tolerance"), std::string::npos)
+          << e.what();
+    }
+  }
+}
+
 // A walk that max_steps ends says so: the heel is frozen where the body went and the feet
 // stay behind it, which the summary gives (and the balance advice points to, instead of a
 // range to widen: Bioloid 2.6 m from its target was told to widen upper_body_y_range to
@@ -699,6 +772,7 @@ TEST(Walking, TheDefaultsScaleToTheRobotsHeightAndFeet) {
   const WalkingParameters paper = scaled_walking_parameters(make_paper_model(), FootGeometry{});
   EXPECT_EQ(paper.max_step_length, defaults.max_step_length);
   EXPECT_EQ(paper.step_duration, defaults.step_duration);
+  EXPECT_EQ(paper.position_tolerance, defaults.position_tolerance);
   EXPECT_EQ(paper.min_step_width, defaults.min_step_width);
   EXPECT_EQ(paper.max_step_width, defaults.max_step_width);
   for (const char* id : {"nao", "h1", "g1_29dof"}) {
@@ -709,6 +783,8 @@ TEST(Walking, TheDefaultsScaleToTheRobotsHeightAndFeet) {
     const WalkingParameters p = scaled_walking_parameters(model, feet);
     EXPECT_NEAR(p.max_step_length, 0.25 * height / 0.6, 1e-12) << id;
     EXPECT_NEAR(p.step_duration, 0.6 * std::sqrt(height / 0.6), 1e-12) << id;
+    EXPECT_NEAR(p.position_tolerance, 0.005 * height / 0.6, 1e-15) << id;
+    EXPECT_EQ(p.angle_tolerance, defaults.angle_tolerance) << id;
     EXPECT_NEAR(p.min_step_width, std::max(0.14 * feet.spacing / 0.18, 1.1 * feet.width), 1e-12) << id;
     EXPECT_NEAR(p.max_step_width, 0.30 * feet.spacing / 0.18, 1e-12) << id;
     EXPECT_NO_THROW(WalkingModule(model, feet, p)) << id;
@@ -775,6 +851,28 @@ TEST(Walking, AScenarioWalksWithTheScaledStepsUnlessItGivesItsOwn) {
   EXPECT_GT(given_longest, 0.25 * height / 0.6 + 0.05);
   EXPECT_LE(given_longest, 0.25 + 1e-9);
   EXPECT_NEAR(given_interval, 0.6, 1.5e-3);
+  // The position tolerance too: scaled, unless given.
+  EXPECT_NEAR(scaled->walking_parameters.position_tolerance, 0.005 * height / 0.6, 1e-15);
+  EXPECT_NEAR(given->walking_parameters.position_tolerance, 0.005 * height / 0.6, 1e-15);
+  const auto tolerance_given = run_scenario(walk_scenario(nao, "length: 0.15, width: 0.07, ", "1.5, 0.4, 0.0", "",
+                                                          ", position_tolerance: 0.004, angle_tolerance: 0.01"));
+  EXPECT_EQ(tolerance_given->walking_parameters.position_tolerance, 0.004);
+  EXPECT_EQ(tolerance_given->walking_parameters.angle_tolerance, 0.01);
+}
+
+// The tolerance of one number for metres and radians is gone: a scenario giving it is told
+// what replaced it, on its line.
+TEST(Walking, TheOldErrorToleranceNamesItsReplacements) {
+  try {
+    parse_scenario("name: w\nrobot: {builtin: paper}\nduration: 1\nwalking:\n  enabled: true\n  error_tolerance: 0.01\n"
+                   "tasks: [{name: hand, type: position, frame: l_hand_ref}]\n",
+                   "w.yaml", ".");
+    ADD_FAILURE() << "accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("w.yaml:6: walking.error_tolerance: replaced by position_tolerance [m]"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 // A walk to a floating heel more than two steps away faces the way there and walks forward,

@@ -3,6 +3,7 @@
 /// The task element interface (section III): a value, Jacobian rows and an error.
 
 #include <string>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -15,6 +16,14 @@ namespace wbm {
 enum class TargetKind {
   kVector,     ///< Euclidean values (positions, angles, joint values).
   kDirection,  ///< A unit vector moved along great circles (2-dof axis tasks).
+};
+
+/// The unit of a task row's value and error, for decisions that compare errors of different
+/// rows (walking's trigger tolerances: WalkingParameters::position_tolerance and
+/// angle_tolerance).
+enum class RowUnit {
+  kLength,  ///< [m]: positions, the centre of mass, prismatic joints.
+  kAngle,   ///< [rad]: axis and attitude angles, revolute joints.
 };
 
 /// One task element: a few rows of the task vector x (eq. 4).
@@ -41,6 +50,9 @@ class TaskElement {
   /// commanded target by whole periods to within half a period of its filter's output
   /// (the short way round) and takes value rates modulo the period.
   double target_period() const { return target_period_; }
+  /// Unit of row `row` (0 <= row < dim()). Every row is a length unless the element says
+  /// otherwise (set_row_unit): the shipped angle elements and JointTask's revolute rows do.
+  RowUnit row_unit(int row) const { return row_units_[static_cast<size_t>(row)]; }
   /// Error feedback gain [1/s].
   double gain() const { return gain_; }
   /// @throws ConfigError if gain < 0 or not finite.
@@ -63,9 +75,14 @@ class TaskElement {
                         const Eigen::Ref<const Eigen::VectorXd>& target_rate, Eigen::Ref<Eigen::MatrixXd> J,
                         Eigen::Ref<Eigen::VectorXd> error, Eigen::Ref<Eigen::VectorXd> rate) = 0;
 
+ protected:
+  /// For the constructors of derived elements. @throws ConfigError if row is not in [0, dim()).
+  void set_row_unit(int row, RowUnit unit);
+
  private:
   friend class TaskStack;  // sets all_rows_active_
   std::string name_;
+  std::vector<RowUnit> row_units_;
   bool all_rows_active_ = true;
   double target_period_ = 0.0;
   int dim_;

@@ -19,7 +19,10 @@ struct WalkingParameters {
   bool trigger_on_joint_limit = true;   ///< a dof clamped or frozen at its limit
   double cost_threshold = 0.6;          ///< null-space cost H above this; <= 0: off
   double stall_time = 0.6;              ///< [s] task error not decreasing by 1 %; <= 0: off
-  double error_tolerance = 0.005;       ///< [m or rad] errors below this never trigger
+  /// Errors below both tolerances never trigger: a row's error counts in units of its
+  /// tolerance (TaskElement::row_unit), so that metres and radians are never compared.
+  double position_tolerance = 0.005;    ///< [m] lengths: positions, centre of mass, prismatic joints; > 0
+  double angle_tolerance = 0.005;       ///< [rad] axis and attitude angles, revolute joints; > 0
   double trigger_time = 0.05;           ///< [s]
   // Step generator: limits relative to the support foot and the step duration.
   double max_step_length = 0.25;  ///< [m] forward (backward: half of it)
@@ -52,12 +55,13 @@ inline constexpr double kDefaultWalkingHeight = 0.6;
 /// apart), scaled to a robot: the step widths by its feet's spacing (0.78 and 1.67 times it;
 /// NAO's feet stand 0.10 m apart, H1's 0.41 m; the smaller at least 1.1 times the feet's
 /// width, so that they do not land on each other, but not above the spacing),
-/// max_step_length by its upper body's height standing straight (upper_body_z's upper
-/// limit: 0.25 m per 0.6 m of height; NAO 0.14 m, H1 0.43 m) and step_duration by that
+/// max_step_length and position_tolerance by its upper body's height standing straight
+/// (upper_body_z's upper limit: 0.25 m and 5 mm per 0.6 m of height; NAO 0.14 m and 2.8 mm,
+/// H1 0.43 m and 8.7 mm; angle_tolerance stays) and step_duration by that
 /// height's square root (equal Froude numbers, so that a robot walks as the paper model
 /// would at its size: NAO 0.45 s, H1 0.79 s; the URDF import scales the heel's speed limit
 /// alike). A height that is not above 0.05 m (a base on the ground), or a model without an
-/// upper_body_z dof, keeps the default length and duration.
+/// upper_body_z dof, keeps the default length, tolerance and duration.
 WalkingParameters scaled_walking_parameters(const Model& model, const FootGeometry& feet);
 
 enum WalkingFlag : std::uint32_t {
@@ -146,6 +150,8 @@ class WalkingModule {
   bool given_up_ = false;
   int walks_without_progress_ = 0;
   int steps_this_walk_ = 0;
+  // 1 / position_tolerance and 1 / angle_tolerance: each row's error in its tolerances.
+  double per_length_tolerance_ = 0.0, per_angle_tolerance_ = 0.0;
   double trigger_timer_ = 0.0, converge_timer_ = 0.0, stall_timer_ = 0.0, best_error_ = 1e300;
   double step_timer_ = 0.0;
   bool next_left_ = true;

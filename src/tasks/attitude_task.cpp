@@ -11,7 +11,9 @@ double wrap(double angle) { return std::remainder(angle, 2.0 * M_PI); }
 
 AttitudeTask::AttitudeTask(const Model& model, std::string name, const std::string& frame, const std::string& reference)
     : TaskElement(std::move(name), 3, 3, TargetKind::kVector, 2.0 * M_PI), frame_(model, frame, reference),
-      J3_(3, model.num_dofs()) {}
+      J3_(3, model.num_dofs()) {
+  for (int row = 0; row < 3; ++row) set_row_unit(row, RowUnit::kAngle);
+}
 
 Vector3 AttitudeTask::kardan_angles(const Matrix3& R) {
   // R = Rx(a) Ry(b) Rz(c): R(0,2) = sin b, R(1,2) = -sin a cos b, R(2,2) = cos a cos b,

@@ -12,6 +12,8 @@ namespace wbm {
 AxisTask::AxisTask(const Model& model, std::string name, const std::string& frame, const std::string& reference,
                    const Vector3& axis)
     : TaskElement(std::move(name), 2, 3, TargetKind::kDirection), frame_(model, frame, reference) {
+  set_row_unit(0, RowUnit::kAngle);
+  set_row_unit(1, RowUnit::kAngle);
   const double norm = axis.stableNorm();
   if (!(norm > 0.0 && std::isfinite(norm)))
     throw ConfigError("axis task '" + this->name() + "': the axis in frame '" + frame +

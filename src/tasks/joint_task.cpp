@@ -14,6 +14,7 @@ JointTask::JointTask(const Model& model, std::string name, const std::vector<std
     for (const int earlier : dofs_)  // two equal rows: singular in every configuration
       if (earlier == index) throw ConfigError("joint task '" + this->name() + "': dof '" + d + "' is listed twice");
     dofs_.push_back(index);
+    if (model.dof(index).type == JointType::kRevolute) set_row_unit(static_cast<int>(dofs_.size()) - 1, RowUnit::kAngle);
   }
 }
 
