@@ -12,7 +12,8 @@ rows), random filters (bandwidth 0.5-20 1/s, speed limits, orders 2-6), gains (0
 solver settings (jerk limit 0 to 100, speed limits on or off, thresholds, damping) and
 cycle times (0.5-10 ms), and a timeline of one to eight events switching elements and
 single rows on and off, moving targets by up to 1 km, turning axis targets, freezing and
-releasing dofs, switching balance; balance and walking on from the start on some. Each run
+releasing dofs, switching balance; balance and walking on from the start on some (half
+of the walks with their own trigger tolerances). Each run
 (6 s, every cycle recorded) must:
 
 - exit 0 (the generator writes only valid files);
@@ -119,7 +120,13 @@ class Generator:
             lines.append(f"balance: {{enabled: true, compensate: {str(r.random() < 0.7).lower()}, "
                          f"gain: {r.choice([2, 4, 8])}}}")
         if walking:
-            lines.append("walking: {enabled: true}")
+            # Half of the walks with their own trigger tolerances (log-uniform, 0.1 mm to 5 cm
+            # and 0.1 mrad to 0.1 rad); the others scaled to the robot.
+            tolerances = ""
+            if r.random() < 0.5:
+                tolerances = (f", position_tolerance: {10 ** r.uniform(-4, math.log10(0.05)):.6g}"
+                              f", angle_tolerance: {10 ** r.uniform(-4, -1):.6g}")
+            lines.append("walking: {enabled: true" + tolerances + "}")
 
         joints = [d for d in dofs if not d.startswith(("heel_", "upper_body_"))]
         if joints and r.random() < 0.3:  # a start away from the home pose, within the limits
