@@ -654,6 +654,13 @@ json summarize(const ScenarioRun& run) {
     out["walking"]["steps"] = {{"max_step_length", p.max_step_length}, {"min_step_width", p.min_step_width},
                                {"max_step_width", p.max_step_width}, {"step_duration", p.step_duration},
                                {"max_steps", p.max_steps}};
+    // What starts a walk, with the tolerances used (the file's, else position_tolerance scaled to
+    // the robot): a user whose robot walked, or did not, sees against what.
+    out["walking"]["trigger"] = {{"position_tolerance", p.position_tolerance},
+                                 {"angle_tolerance", p.angle_tolerance},
+                                 {"cost_threshold", p.cost_threshold},
+                                 {"stall_time", p.stall_time},
+                                 {"on_joint_limit", p.trigger_on_joint_limit}};
     // Walks that max_steps ended, and how far the feet then stand from the body's heel (the
     // heel dofs): a walk that ends so freezes the heel where the body went, and the feet
     // stay behind it.

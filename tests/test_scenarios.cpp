@@ -858,6 +858,11 @@ TEST(Walking, AScenarioWalksWithTheScaledStepsUnlessItGivesItsOwn) {
                                                           ", position_tolerance: 0.004, angle_tolerance: 0.01"));
   EXPECT_EQ(tolerance_given->walking_parameters.position_tolerance, 0.004);
   EXPECT_EQ(tolerance_given->walking_parameters.angle_tolerance, 0.01);
+  // summary.json says which tolerances the walk used.
+  const nlohmann::json trigger = summarize(*tolerance_given)["walking"]["trigger"];
+  EXPECT_EQ(trigger["position_tolerance"].get<double>(), 0.004) << trigger.dump();
+  EXPECT_EQ(trigger["angle_tolerance"].get<double>(), 0.01) << trigger.dump();
+  EXPECT_NEAR(summarize(*scaled)["walking"]["trigger"]["position_tolerance"].get<double>(), 0.005 * height / 0.6, 1e-15);
 }
 
 // The tolerance of one number for metres and radians is gone: a scenario giving it is told
