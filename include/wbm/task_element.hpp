@@ -50,8 +50,9 @@ class TaskElement {
   /// commanded target by whole periods to within half a period of its filter's output
   /// (the short way round) and takes value rates modulo the period.
   double target_period() const { return target_period_; }
-  /// Unit of row `row` (0 <= row < dim()). Every row is a length unless the element says
-  /// otherwise (set_row_unit): the shipped angle elements and JointTask's revolute rows do.
+  /// Unit of row `row`. Every row is a length unless the element says otherwise
+  /// (set_row_unit): the shipped angle elements and JointTask's revolute rows do.
+  /// @pre 0 <= row < dim().
   RowUnit row_unit(int row) const { return row_units_[static_cast<size_t>(row)]; }
   /// Error feedback gain [1/s].
   double gain() const { return gain_; }

@@ -19,8 +19,8 @@ struct WalkingParameters {
   bool trigger_on_joint_limit = true;   ///< a dof clamped or frozen at its limit
   double cost_threshold = 0.6;          ///< null-space cost H above this; <= 0: off
   double stall_time = 0.6;              ///< [s] task error not decreasing by 1 %; <= 0: off
-  /// Errors below both tolerances never trigger: a row's error counts in units of its
-  /// tolerance (TaskElement::row_unit), so that metres and radians are never compared.
+  /// A walk starts only while some active row's error exceeds the tolerance of its unit
+  /// (TaskElement::row_unit): metres and radians are never compared with each other.
   double position_tolerance = 0.005;    ///< [m] lengths: positions, centre of mass, prismatic joints; > 0
   double angle_tolerance = 0.005;       ///< [rad] axis and attitude angles, revolute joints; > 0
   double trigger_time = 0.05;           ///< [s]
