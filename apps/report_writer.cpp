@@ -225,7 +225,7 @@ std::string render_report(const ScenarioRun& run) {
     for (int e = 0; e < stack.num_elements(); ++e) any_active = any_active || run.active[k][e] > 0.0;
   for (int e = 0; e < stack.num_elements() && any_active; ++e) {
     const double scale = error_scale(s.tasks[e]);
-    const std::string unit = error_unit(model, s.tasks[e]);
+    const std::string unit = error_unit(s.tasks[e], stack.element(e));
     auto group = std::find_if(errors.begin(), errors.end(), [&](const auto& g) { return g.first == unit; });
     if (group == errors.end()) group = errors.insert(errors.end(), {unit, json::array()});
     group->second.push_back(series(s.tasks[e].name + " [" + unit + "]", [&](int k) {

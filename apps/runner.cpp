@@ -524,15 +524,11 @@ double error_scale(const ScenarioTask& task) {
   return task.type == "joints" ? 1.0 : 1000.0;
 }
 
-std::string error_unit(const Model& model, const ScenarioTask& task) {
+std::string error_unit(const ScenarioTask& task, const TaskElement& element) {
   if (task.type == "axis" || task.type == "attitude") return "deg";
   if (task.type != "joints") return "mm";
-  bool angles = false, lengths = false;
-  for (const std::string& dof : task.dofs) {
-    const bool prismatic = model.dof(model.dof_index(dof)).type == JointType::kPrismatic;
-    lengths = lengths || prismatic;
-    angles = angles || !prismatic;
-  }
+  bool angles = false, lengths = false;  // a joint element's rows: revolute and prismatic dofs
+  for (int row = 0; row < element.dim(); ++row) (element.row_unit(row) == RowUnit::kAngle ? angles : lengths) = true;
   return angles && lengths ? "rad, m" : lengths ? "m" : "rad";
 }
 
@@ -562,7 +558,7 @@ json summarize(const ScenarioRun& run) {
         max_tracking = std::max(max_tracking, run.tracking_error[k][i]);
       }
     elements[s.tasks[i].name] = {{"type", type},
-                                 {"unit", error_unit(model, s.tasks[i])},
+                                 {"unit", error_unit(s.tasks[i], run.controller->tasks().element(i))},
                                  {"active_at_end", run.active[K - 1][i] > 0.0},
                                  {"final_error", run.active[K - 1][i] > 0.0 ? json(run.error[K - 1][i] * scale) : json(nullptr)},
                                  {"max_error", max_error * scale},

@@ -71,8 +71,9 @@ struct RunOptions {
 std::unique_ptr<ScenarioRun> run_scenario(const Scenario& scenario, const RunOptions& options = {});
 
 /// The unit summary.json and the report give an element's errors in: "deg" (axis,
-/// attitude), "mm" (position, com), and for joints "rad", "m" (prismatic dofs) or "rad, m".
-std::string error_unit(const Model& model, const ScenarioTask& task);
+/// attitude), "mm" (position, com), and for joints by the element's row units
+/// (TaskElement::row_unit): "rad", "m" (prismatic dofs) or "rad, m".
+std::string error_unit(const ScenarioTask& task, const TaskElement& element);
 /// The factor from the element's error (m, rad) to that unit: 1000, 180 / pi or 1.
 double error_scale(const ScenarioTask& task);
 
