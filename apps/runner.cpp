@@ -649,7 +649,7 @@ json summarize(const ScenarioRun& run) {
     const WalkingParameters& p = run.walking_parameters;
     out["walking"]["steps"] = {{"max_step_length", p.max_step_length}, {"min_step_width", p.min_step_width},
                                {"max_step_width", p.max_step_width}, {"step_duration", p.step_duration},
-                               {"max_steps", p.max_steps}};
+                               {"max_steps", p.max_steps}, {"max_heel_lead", p.max_heel_lead}};
     // What starts a walk, with the tolerances used (the file's, else position_tolerance scaled to
     // the robot): a user whose robot walked, or did not, sees against what.
     out["walking"]["trigger"] = {{"position_tolerance", p.position_tolerance},
@@ -666,6 +666,14 @@ json summarize(const ScenarioRun& run) {
     const Eigen::VectorXd& q = run.q.back();
     out["walking"]["walks_at_step_limit"] = at_step_limit;
     out["walking"]["feet_from_body"] = std::hypot(h[0] - q[v.heel_x], h[1] - q[v.heel_y]);
+    // How far the body's heel (the heel dofs, where the floating heel took the upper body)
+    // ran ahead of the real heel between the feet during the walks [m]: the legs must
+    // bridge it.
+    double lead = 0.0;
+    for (size_t k = 0; k < run.walking.size(); ++k)
+      if (run.walking[k][3] > 0.0)
+        lead = std::max(lead, std::hypot(run.walking[k][0] - run.q[k][v.heel_x], run.walking[k][1] - run.q[k][v.heel_y]));
+    out["walking"]["max_body_lead"] = lead;
   }
   if (!run.balance.empty()) {
     double min_margin = 1e300;
@@ -723,6 +731,15 @@ std::vector<std::string> describe_walking(const json& w) {
        << steps["min_step_width"].get<double>() << "-" << steps["max_step_width"].get<double>() << " m wide, every "
        << steps["step_duration"].get<double>() << " s)";
   std::vector<std::string> lines = {line.str()};
+  if (walks > 0) {
+    const double bound = steps["max_heel_lead"].get<double>();
+    std::ostringstream lead;
+    lead << std::fixed << std::setprecision(3) << "the body up to " << w["max_body_lead"].get<double>()
+         << " m ahead of the feet (the floating heel from the real heel between them; ";
+    if (bound > 0.0) lead << std::setprecision(2) << "held beyond " << bound << " steps)";
+    else lead << "walking.max_heel_lead can bound it)";
+    lines.push_back(lead.str());
+  }
   if (const int at_limit = w["walks_at_step_limit"].get<int>(); at_limit > 0) {
     std::ostringstream limit;
     limit << std::fixed << std::setprecision(3) << at_limit << (at_limit == 1 ? " walk" : " walks")

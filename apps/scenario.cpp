@@ -326,7 +326,7 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
                                 "angle_tolerance", "trigger_time",
                                 "max_step_length", "max_step_width", "min_step_width", "max_step_turn", "step_duration",
                                 "converged_speed", "converge_time", "feet_tolerance", "max_steps", "max_walks",
-                                "heel_stop_time"});
+                                "heel_stop_time", "max_heel_lead"});
     if (walking["enabled"]) s.walking.enabled = r.boolean(walking["enabled"], "walking.enabled");
     if (s.walking.enabled) no_fixed_base(walking["enabled"], "walking.enabled", "walking");
     if (walking["trigger_on_joint_limit"]) w.trigger_on_joint_limit = r.boolean(walking["trigger_on_joint_limit"], "walking.trigger_on_joint_limit");
@@ -335,7 +335,7 @@ Scenario parse_scenario(const std::string& yaml, const std::string& source, cons
         {"max_step_length", &w.max_step_length}, {"max_step_width", &w.max_step_width},
         {"min_step_width", &w.min_step_width}, {"max_step_turn", &w.max_step_turn}, {"step_duration", &w.step_duration},
         {"converged_speed", &w.converged_speed}, {"converge_time", &w.converge_time}, {"feet_tolerance", &w.feet_tolerance},
-        {"heel_stop_time", &w.heel_stop_time}};
+        {"heel_stop_time", &w.heel_stop_time}, {"max_heel_lead", &w.max_heel_lead}};
     for (const auto& [key, slot] : numbers)
       if (walking[key]) *slot = r.number(walking[key], std::string("walking.") + key);
     if (walking["position_tolerance"])

@@ -74,6 +74,13 @@ WalkingModule::WalkingModule(const Model& model, const FootGeometry& feet, const
     throw ConfigError(msg.str());
   }
   if (!std::isfinite(p.heel_stop_time)) throw ConfigError("walking: heel_stop_time must be finite");
+  // Released half a step nearer: below one step the heel could be held with the feet at it.
+  if (!std::isfinite(p.max_heel_lead) || (p.max_heel_lead > 0.0 && p.max_heel_lead < 1.0)) {
+    std::ostringstream msg;
+    msg << "walking: max_heel_lead must be >= 1 (in max_step_length), or <= 0 for a heel never held; got "
+        << p.max_heel_lead;
+    throw ConfigError(msg.str());
+  }
   for (int k = 0; k < 3; ++k)
     heel_deceleration_[k] = p.heel_stop_time > 0.0 ? model.max_speeds()[heel_dofs_[k]] / p.heel_stop_time : 0.0;
   stand_at(model.home());
@@ -206,7 +213,7 @@ std::uint32_t WalkingModule::update_walk(const Controller& c, const ControllerSt
   if (error < best_error_ * 0.99 || error > best_error_ * 1.01) {
     best_error_ = error;
     stall_timer_ = 0.0;
-  } else {
+  } else if (!holding_) {  // a held heel does not stall the walk: the feet are catching up
     stall_timer_ += dt;
   }
   bool stalled = p_.stall_time > 0.0 && stall_timer_ > p_.stall_time;
@@ -221,6 +228,7 @@ std::uint32_t WalkingModule::update_walk(const Controller& c, const ControllerSt
     if (trigger_timer_ < p_.trigger_time || trigger_timer_ == 0.0) return flags;
     walking_ = true;
     finishing_ = false;
+    holding_ = false;
     steps_this_walk_ = 0;
     converge_timer_ = 0.0;
     step_timer_ = 0.0;
@@ -237,7 +245,15 @@ std::uint32_t WalkingModule::update_walk(const Controller& c, const ControllerSt
   flags |= kWalking;
   // A walk that no longer reduces the error ends: the heel stays where it is.
   if (stalled) finishing_ = true;
-  set_heel_free(command, !finishing_);
+  // The floating heel held while it is more than max_heel_lead steps ahead of the real heel,
+  // released when a landing has brought the feet half a step nearer (hysteresis: no
+  // holding and releasing cycle after cycle).
+  const double lead = (heel - real_heel().position).norm(), max_lead = p_.max_heel_lead * p_.max_step_length;
+  if (p_.max_heel_lead > 0.0 && !finishing_)
+    holding_ = lead > max_lead || (holding_ && lead > max_lead - 0.5 * p_.max_step_length);
+  else
+    holding_ = false;
+  set_heel_free(command, !finishing_ && !holding_);
   // Step generator: every step_duration the swing foot lands at the limited step towards
   // its place beside the floating heel; the feet alternate.
   step_timer_ += dt;
@@ -248,7 +264,7 @@ std::uint32_t WalkingModule::update_walk(const Controller& c, const ControllerSt
     // Far from the floating heel (more than two steps), the feet face the way there and walk
     // forward; near it, they turn to its yaw.
     const Vector2 to_go = heel - real_heel().position;
-    const bool far = to_go.norm() > 2.0 * p_.max_step_length;
+    const bool far = to_go.norm() > 2.0 * p_.max_step_length || holding_;
     const double step_yaw = far ? std::atan2(to_go.y(), to_go.x()) : yaw;
     const FootPose target = stance_target(next_left_, heel, step_yaw);
     if (!feet_at(heel, yaw)) {
@@ -263,12 +279,14 @@ std::uint32_t WalkingModule::update_walk(const Controller& c, const ControllerSt
   }
   double heel_speed = 0.0;
   for (int d : heel_dofs_) heel_speed = std::max(heel_speed, std::abs(c.qdot()[d]));
-  converge_timer_ = heel_speed < p_.converged_speed || finishing_ ? converge_timer_ + dt : 0.0;
+  converge_timer_ = (heel_speed < p_.converged_speed && !holding_) || finishing_ ? converge_timer_ + dt : 0.0;
+  if (holding_) flags |= kHeelHeld;
   const bool done = converge_timer_ >= p_.converge_time && feet_at(heel, yaw);
   const bool too_many = steps_this_walk_ >= p_.max_steps;
   if (done || too_many) {
     walking_ = false;
     finishing_ = false;
+    holding_ = false;
     set_heel_free(command, false);
     flags |= kWalkFinished;
     if (too_many) flags |= kStepLimitReached;

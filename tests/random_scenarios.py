@@ -13,7 +13,7 @@ solver settings (jerk limit 0 to 100, speed limits on or off, thresholds, dampin
 cycle times (0.5-10 ms), and a timeline of one to eight events switching elements and
 single rows on and off, moving targets by up to 1 km, turning axis targets, freezing and
 releasing dofs, switching balance; balance and walking on from the start on some (half
-of the walks with their own trigger tolerances). Each run
+of the walks with their own trigger tolerances, a third with the heel's lead bounded). Each run
 (6 s, every cycle recorded) must:
 
 - exit 0 (the generator writes only valid files);
@@ -126,6 +126,9 @@ class Generator:
             if r.random() < 0.5:
                 tolerances = (f", position_tolerance: {10 ** r.uniform(-4, math.log10(0.05)):.6g}"
                               f", angle_tolerance: {10 ** r.uniform(-4, -1):.6g}")
+            # A third of the walks with the floating heel's lead bounded (1-3 steps).
+            if r.random() < 1 / 3:
+                tolerances += f", max_heel_lead: {r.uniform(1, 3):.3g}"
             lines.append("walking: {enabled: true" + tolerances + "}")
 
         joints = [d for d in dofs if not d.startswith(("heel_", "upper_body_"))]
