@@ -25,7 +25,10 @@ of the walks with their own trigger tolerances, a third with the heel's lead bou
   (the braking lands on limits);
 - not move a dof frozen in b_C (from the start, or by the timeline until released) that
   nothing drives (the balance module drives the upper body's x and y);
-- write only finite numbers to trajectory.csv.
+- write only finite numbers to trajectory.csv;
+- while walking, keep the body (the floating heel) within walking.max_heel_lead steps of the
+  feet, plus one cycle's travel and the braking distance, where speed limits are on, but
+  after a walk that max_steps ended (it leaves the feet behind).
 
 Prints one line per run and exits 1 if any run breaks a promise, naming the scenario file
 it kept (OUT_DIR: a temp dir unless given). Scenarios like these found a runner crash
@@ -50,14 +53,14 @@ RANDOM_ROBOTS = ("g1_29", "h1", "atlas", "nao", "dual")
 
 
 def dof_limits(wbm, urdf, options):
-    """{dof name: (lower, upper)} from `wbm model info` (the robot options as in the scenario;
-    a fixed base has the same dofs, its virtual ones stay frozen)."""
+    """{dof name: (lower, upper, max speed)} from `wbm model info` (the robot options as in the
+    scenario; a fixed base has the same dofs, its virtual ones stay frozen)."""
     args = [wbm, "model", "info"] + ([urdf] if urdf else [])
     if "legs:" in options:
         args += ["--legs", options.split("[")[1].split("]")[0].replace(" ", "")]
     run = subprocess.run(args, capture_output=True, text=True, check=True)
-    return {p[1]: (float(p[4]), float(p[5])) for p in (line.split() for line in run.stdout.splitlines())
-            if len(p) >= 6 and p[0].isdigit()}
+    return {p[1]: (float(p[4]), float(p[5]), float(p[6])) for p in (line.split() for line in run.stdout.splitlines())
+            if len(p) >= 7 and p[0].isdigit()}
 
 
 class Generator:
@@ -135,7 +138,7 @@ class Generator:
         if joints and r.random() < 0.3:  # a start away from the home pose, within the limits
             start = {}
             for d in r.sample(joints, min(len(joints), r.randint(1, 3))):
-                lower, upper = (max(x, -3.0) if i == 0 else min(x, 3.0) for i, x in enumerate(limits[d]))
+                lower, upper = (max(x, -3.0) if i == 0 else min(x, 3.0) for i, x in enumerate(limits[d][:2]))
                 start[d] = round(r.uniform(lower, upper), 4)
             lines.append("initial: {" + ", ".join(f"{d}: {v}" for d, v in start.items()) + "}")
 
@@ -238,7 +241,9 @@ class Generator:
         if balance or balance_switched:  # the balance module drives them while frozen
             held = [h for h in held if h[0] not in ("upper_body_x", "upper_body_y")]
         return "\n".join(lines) + "\n", {"robot": robot_id, "jerk": jerk, "limit_speeds": limit_speeds,
-                                         "stopped": stopped, "held": held, "dt": dt}
+                                         "stopped": stopped, "held": held, "dt": dt,
+                                         "heel_speed": max(limits[d][2] for d in ("heel_x", "heel_y")) if walking
+                                         else 0.0}
 
 
 def broken_promises(directory, info):
@@ -255,6 +260,18 @@ def broken_promises(directory, info):
     bound = summary.get("max_joint_acceleration_to_bound")
     if bound and bound["ratio"] > 1 + 1e-9 and bound["dof"] not in info["stopped"]:
         problems.append(f"{bound['dof']}'s rate changed at {bound['ratio']:.6g} x its bound k v_max")
+    walk = summary.get("walking")
+    if (walk and walk["walks"] > 0 and walk["steps"]["max_heel_lead"] > 0 and walk["walks_at_step_limit"] == 0
+            and info["limit_speeds"]):
+        # The floating heel held max_heel_lead steps ahead of the feet: beyond it by one
+        # cycle's travel and the braking distance (heel_stop_time 0.25 s) at most, x and y
+        # each at the heel's speed limit (a walk that max_steps ended leaves the feet behind;
+        # without speed limits the heel has none either).
+        reach = walk["steps"]["max_heel_lead"] * walk["steps"]["max_step_length"]
+        bound = reach + math.sqrt(2) * info["heel_speed"] * (info["dt"] + 0.125) + 1e-9
+        if walk["max_body_lead"] > bound:
+            problems.append(f"the body {walk['max_body_lead']:.4g} m ahead of the feet, above "
+                            f"{walk['steps']['max_heel_lead']:.3g} steps ({reach:.4g} m) and the braking ({bound:.4g} m)")
     cycles = summary["status_cycles"]
     for flag in ("invalid_input", "invalid_command", "invalid_target"):
         if cycles.get(flag, 0):
