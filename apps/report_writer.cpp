@@ -266,7 +266,16 @@ std::string render_report(const ScenarioRun& run) {
                                              series("real heel x", [&](int k) { return run.walking[k][0]; }),
                                              series("real heel y", [&](int k) { return run.walking[k][1]; }),
                                              series("real heel yaw", [&](int k) { return run.walking[k][2]; }),
-                                             series("walking", [&](int k) { return run.walking[k][3]; })})}});
+                                             series("walking", [&](int k) { return run.walking[k][3]; }),
+                                             // How far the body is ahead of the feet, and
+                                             // when the walk held it (max_heel_lead).
+                                             series("body ahead of the feet", [&](int k) {
+                                               return std::hypot(run.q[k][model.virtual_dofs().heel_x] - run.walking[k][0],
+                                                                 run.q[k][model.virtual_dofs().heel_y] - run.walking[k][1]);
+                                             }),
+                                             series("heel held", [&](int k) {
+                                               return (static_cast<std::uint32_t>(run.walking[k][4]) & kHeelHeld) != 0 ? 1.0 : 0.0;
+                                             })})}});
   }
   if (!run.balance.empty()) {
     plots.push_back({{"title", "Balance: centre of mass and support centre (world x, y)"},

@@ -584,6 +584,19 @@ TEST(Walking, AHeelLeadBoundKeepsTheBodyNearTheFeet) {
     text << std::fixed << std::setprecision(2) << "(the floating heel from the real heel between them; held beyond "
          << steps << " steps)";
     EXPECT_NE(said(*run).find(text.str()), std::string::npos) << said(*run);
+    // The report's walking plot shows the lead and when the heel was held.
+    double plotted_lead = 0.0, plotted_held = 0.0;
+    const nlohmann::json report = report_data(*run);  // kept: a range-for over a temporary's member dangles
+    for (const auto& plot : report["plots"])
+      if (plot["title"].get<std::string>().rfind("Walking", 0) == 0)
+        for (const auto& series : plot["series"])
+          for (const auto& v : series["values"]) {
+            if (series["label"] == "body ahead of the feet") plotted_lead = std::max(plotted_lead, v.get<double>());
+            if (series["label"] == "heel held") plotted_held = std::max(plotted_held, v.get<double>());
+          }
+    EXPECT_GT(plotted_lead, 0.8 * lead_of(*run)) << steps;  // the plot's samples, not every cycle
+    EXPECT_LE(plotted_lead, lead_of(*run)) << steps;
+    EXPECT_EQ(plotted_held, 1.0) << steps;
   }
 }
 
