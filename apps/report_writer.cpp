@@ -270,8 +270,7 @@ std::string render_report(const ScenarioRun& run) {
                                              // How far the body is ahead of the feet, and
                                              // when the walk held it (max_heel_lead).
                                              series("body ahead of the feet", [&](int k) {
-                                               return std::hypot(run.q[k][model.virtual_dofs().heel_x] - run.walking[k][0],
-                                                                 run.q[k][model.virtual_dofs().heel_y] - run.walking[k][1]);
+                                               return body_lead(run, static_cast<size_t>(k));
                                              }),
                                              series("heel held", [&](int k) {
                                                return (static_cast<std::uint32_t>(run.walking[k][4]) & kHeelHeld) != 0 ? 1.0 : 0.0;

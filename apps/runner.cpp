@@ -524,6 +524,11 @@ double error_scale(const ScenarioTask& task) {
   return task.type == "joints" ? 1.0 : 1000.0;
 }
 
+double body_lead(const ScenarioRun& run, size_t k) {
+  const VirtualDofs& v = run.model->virtual_dofs();
+  return std::hypot(run.q[k][v.heel_x] - run.walking[k][0], run.q[k][v.heel_y] - run.walking[k][1]);
+}
+
 std::string error_unit(const ScenarioTask& task, const TaskElement& element) {
   if (task.type == "axis" || task.type == "attitude") return "deg";
   if (task.type != "joints") return "mm";
@@ -666,13 +671,10 @@ json summarize(const ScenarioRun& run) {
     const Eigen::VectorXd& q = run.q.back();
     out["walking"]["walks_at_step_limit"] = at_step_limit;
     out["walking"]["feet_from_body"] = std::hypot(h[0] - q[v.heel_x], h[1] - q[v.heel_y]);
-    // How far the body's heel (the heel dofs, where the floating heel took the upper body)
-    // ran ahead of the real heel between the feet during the walks [m]: the legs must
-    // bridge it.
+    // How far the body ran ahead of the feet during the walks [m]: the legs must bridge it.
     double lead = 0.0;
     for (size_t k = 0; k < run.walking.size(); ++k)
-      if (run.walking[k][3] > 0.0)
-        lead = std::max(lead, std::hypot(run.walking[k][0] - run.q[k][v.heel_x], run.walking[k][1] - run.q[k][v.heel_y]));
+      if (run.walking[k][3] > 0.0) lead = std::max(lead, body_lead(run, k));
     out["walking"]["max_body_lead"] = lead;
   }
   if (!run.balance.empty()) {

@@ -70,6 +70,10 @@ struct RunOptions {
 /// @throws ConfigError / ModelError naming the scenario line for unknown names or sizes.
 std::unique_ptr<ScenarioRun> run_scenario(const Scenario& scenario, const RunOptions& options = {});
 
+/// How far the body's heel (the heel dofs, where the floating heel took the upper body) is
+/// ahead of the real heel between the feet in recorded cycle k [m]. @pre walking ran.
+double body_lead(const ScenarioRun& run, size_t k);
+
 /// The unit summary.json and the report give an element's errors in: "deg" (axis,
 /// attitude), "mm" (position, com), and for joints by the element's row units
 /// (TaskElement::row_unit): "rad", "m" (prismatic dofs) or "rad, m".

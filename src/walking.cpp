@@ -247,8 +247,10 @@ std::uint32_t WalkingModule::update_walk(const Controller& c, const ControllerSt
   if (stalled) finishing_ = true;
   // The floating heel held while it is more than max_heel_lead steps ahead of the real heel,
   // released when a landing has brought the feet half a step nearer (hysteresis: no
-  // holding and releasing cycle after cycle).
-  const double lead = (heel - real_heel().position).norm(), max_lead = p_.max_heel_lead * p_.max_step_length;
+  // holding and releasing cycle after cycle). The real heel moves only when a foot lands
+  // below, so `to_go` also serves the step generator.
+  const Vector2 to_go = heel - real_heel().position;
+  const double lead = to_go.norm(), max_lead = p_.max_heel_lead * p_.max_step_length;
   if (p_.max_heel_lead > 0.0 && !finishing_)
     holding_ = lead > max_lead || (holding_ && lead > max_lead - 0.5 * p_.max_step_length);
   else
@@ -263,8 +265,7 @@ std::uint32_t WalkingModule::update_walk(const Controller& c, const ControllerSt
     FootPose& swing = next_left_ ? left_ : right_;
     // Far from the floating heel (more than two steps), the feet face the way there and walk
     // forward; near it, they turn to its yaw.
-    const Vector2 to_go = heel - real_heel().position;
-    const bool far = to_go.norm() > 2.0 * p_.max_step_length || holding_;
+    const bool far = lead > 2.0 * p_.max_step_length || holding_;
     const double step_yaw = far ? std::atan2(to_go.y(), to_go.x()) : yaw;
     const FootPose target = stance_target(next_left_, heel, step_yaw);
     if (!feet_at(heel, yaw)) {
