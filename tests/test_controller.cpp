@@ -361,6 +361,51 @@ TEST(Controller, SwitchingAMovingElementOffChangesQdotAtMostByTheRateLimit) {
   }
 }
 
+// An element switched on while its value moves (the hand turning as another element moves
+// it) starts its filter from that value and that rate (section IV.F: "the trajectory
+// starts from the current value and velocity"), so the commanded task velocity does not
+// jump to zero: the filter's first rate is the value's rate of the cycle before, up to one
+// cycle of the filter's pull towards a target held at the value.
+TEST(Controller, AnElementSwitchedOnWhileMovingStartsFromItsValueAndRate) {
+  const Model model = make_paper_model();
+  Controller c(model);
+  const int hand = c.add_task(std::make_unique<PositionTask>(model, "r_hand", "r_hand_ref"), {4.0, 0.4, 2});
+  const int grasp = c.add_task(std::make_unique<AxisTask>(model, "r_grasp", "r_hand_ref"), {4.0, 1.0, 2});
+  const int hand_position = c.add_task(std::make_unique<PositionTask>(model, "l_hand", "l_hand_ref"), {4.0, 0.4, 2});
+  c.reset(model.home());
+  Command cmd = c.make_command();
+  const TaskStack& stack = c.tasks();
+  for (int element : {grasp, hand_position})
+    cmd.task_active.segment(stack.row_offset(element), stack.element(element).dim()).setConstant(false);
+  cmd.targets.segment<3>(stack.target_offset(hand)) += Vector3(0.2, -0.1, 0.2);
+  const double dt = 0.001;
+  VectorXd before = c.values();
+  for (int i = 0; i < 300; ++i) {
+    before = c.values();
+    c.update(cmd, dt);
+  }
+  for (int element : {grasp, hand_position}) {
+    const int t0 = stack.target_offset(element), n = stack.element(element).target_dim();
+    const VectorXd rate = (c.values().segment(t0, n) - before.segment(t0, n)) / dt;
+    ASSERT_GT(rate.norm(), element == grasp ? 0.2 : 0.005) << stack.element(element).name() << " is not moving";
+  }
+  const VectorXd values = c.values();
+  VectorXd rate = (values - before) / dt;
+  for (int element : {grasp, hand_position}) {
+    const int t0 = stack.target_offset(element), n = stack.element(element).target_dim();
+    cmd.targets.segment(t0, n) = values.segment(t0, n);  // held where it is now
+    cmd.task_active.segment(stack.row_offset(element), stack.element(element).dim()).setConstant(true);
+  }
+  ASSERT_TRUE(c.update(cmd, dt).ok());
+  for (int element : {grasp, hand_position}) {
+    const int t0 = stack.target_offset(element), n = stack.element(element).target_dim();
+    const VectorXd started = c.filter(element).velocity();
+    EXPECT_LT((started - rate.segment(t0, n)).norm(), 0.02 * rate.segment(t0, n).norm())
+        << stack.element(element).name() << ": the filter started at rate " << started.transpose()
+        << ", the value moved at " << rate.segment(t0, n).transpose();
+  }
+}
+
 // A dof driven into its position limit: the paper clamps it there (IV.E), so it stopped
 // within a cycle (the paper model's elbow at 1.7 rad/s: 1,700 rad/s^2). It is braked before
 // the limit now (kDofBraked) and lands on it: its rate changes by at most k v_max dt per
@@ -802,6 +847,27 @@ TEST(TrajectoryFilter, SmallAngleFunctionsMatchTheLibrary) {
   // Outside the range: the library.
   EXPECT_EQ(internal::angle_between_unit_vectors(0.0, 0.0, -1.0), std::atan2(0.0, -1.0));
   EXPECT_EQ(internal::angle_between_unit_vectors(0.5, 0.25, std::sqrt(0.75)), std::atan2(0.5, std::sqrt(0.75)));
+}
+
+// normalized_near_unit (axis targets, sl-frame axes): a vector within 1e-8 of unit length
+// (the Newton step's range) and any other finite one come out unit to rounding, in their
+// own direction; zero stays zero.
+TEST(TrajectoryFilter, NearUnitNormalisationGivesUnitVectors) {
+  std::mt19937_64 rng(31);
+  std::uniform_real_distribution<double> near(-5e-9, 5e-9), exponent(-150.0, 150.0);
+  double worst_length = 0.0, worst_direction = 0.0;
+  for (int c = 0; c < 100000; ++c) {
+    const Vector3 u = wbm_test::random_direction(3, rng);
+    const double scale = c % 2 ? 1.0 + near(rng) : std::pow(10.0, exponent(rng));
+    const Vector3 v = u * scale;
+    const Vector3 n = internal::normalized_near_unit(v);
+    worst_length = std::max(worst_length, std::abs(n.norm() - 1.0));
+    worst_direction = std::max(worst_direction, (n - u).norm());
+  }
+  std::cout << "worst |n| - 1: " << worst_length << ", worst distance from the direction: " << worst_direction << "\n";
+  EXPECT_LT(worst_length, 1e-15);
+  EXPECT_LT(worst_direction, 1e-15);
+  EXPECT_EQ(internal::normalized_near_unit(Vector3::Zero()).norm(), 0.0);
 }
 
 }  // namespace

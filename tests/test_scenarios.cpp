@@ -346,6 +346,28 @@ TEST(Balance, ZeroAreaSupportAndABadLawHaveDefinedResults) {
   EXPECT_LT(feet.signed_distance(Vector2(1.0, 0.0)), 0.0);
 }
 
+// The shipped law's dead zone: with a margin, no shift while the centre of mass is at
+// least that far inside the support polygon, gain * (centroid - com) once it is closer to
+// the boundary or outside; without one, always the pull towards the centroid.
+TEST(Balance, TheMarginIsADeadZoneInsideTheSupportPolygon) {
+  const SupportPolygon feet = SupportPolygon::standing(Vector2::Zero(), 0.0, FootGeometry{});
+  const double margin = 0.03, gain = 4.0;
+  CenterOfMassCentering with_margin(gain, margin), without(gain, 0.0);
+  // Points along x through the centroid: 0.11 m from the heel and toe edges at the centroid.
+  for (const double x : {0.11, 0.05, -0.05, -0.075, -0.085, -0.09, -0.2, 0.2, 0.3}) {
+    const Vector2 com = feet.centroid() + Vector2(x, 0.0);
+    const double inside = feet.signed_distance(com);
+    const Vector2 pull = gain * (feet.centroid() - com);
+    const Vector2 v = with_margin.shift_velocity(com, feet, 0.001);
+    if (inside >= margin)
+      EXPECT_EQ(v.norm(), 0.0) << "x " << x << ", " << inside << " m inside";
+    else
+      EXPECT_LT((v - pull).norm(), 1e-15) << "x " << x << ", " << inside << " m inside";
+    EXPECT_LT((without.shift_velocity(com, feet, 0.001) - pull).norm(), 1e-15) << "x " << x;
+  }
+  EXPECT_THROW(CenterOfMassCentering(gain, -0.01), ConfigError);
+}
+
 // The support polygon holds its vertices in the object (no allocation in the cycle): on
 // random feet (1 to kMaxFeet, seeded) it is the convex hull of the corners: counter-clockwise
 // and convex, its vertices corners, every corner inside or on it, its area the shoelace

@@ -582,6 +582,57 @@ TEST_P(EveryModel, TaskElementJacobiansMatchFiniteDifferencesOfTheirValues) {
   EXPECT_LT(attitude_skipped, 20) << entry.id << ": the attitude mostly near gimbal lock";
 }
 
+TEST_P(EveryModel, CriterionGradientsMatchFiniteDifferencesOfTheirCost) {
+  // dH/dq is what the null space descends (eq. 5): each criterion's gradient() against the
+  // central difference of its cost() on random configurations, dof by dof (a criterion
+  // weighting that dof alone, so that the difference is not lost in the rounding of the
+  // other dofs' terms; the other entries of the gradient exactly zero): the cubic criterion
+  // with and without its band, the squared distance from the centres. With the default
+  // weights the heel and continuous dofs have none.
+  const wbm_test::ShippedModel& entry = GetParam();
+  const Model model = entry.load();
+  const int n = model.num_dofs();
+  std::mt19937_64 rng(20051206);
+  std::uniform_real_distribution<double> weight(0.5, 2.0);
+  VectorXd gradient(n);
+  int nonzero = 0;
+  for (int kind = 0; kind < 3; ++kind) {
+    for (int i = 0; i < n; ++i) {
+      if (model.dof(i).continuous) continue;  // no centre, no limits: weight 0 always
+      const VectorXd weights = VectorXd::Unit(n, i) * weight(rng);
+      std::unique_ptr<NullSpaceCriterion> criterion;
+      if (kind < 2)
+        criterion = std::make_unique<CubicJointLimitCriterion>(model, kind == 0 ? 0.3 : 0.0, weights);
+      else
+        criterion = std::make_unique<JointCenterCriterion>(model, weights);
+      for (int c = 0; c < 50; ++c) {
+        const VectorXd q = wbm_test::random_configuration(model, rng);
+        criterion->gradient(q, gradient);
+        // A step small against the dof's work range (the cost's scale: Atlas's l_arm_wry2 has 2 mrad).
+        const double h = 1e-6 * std::max(1.0, std::abs(q[i])) * std::min(1.0, model.dof(i).work_range);
+        VectorXd up = q, down = q;
+        up[i] += h;
+        down[i] -= h;
+        const double fd = (criterion->cost(up) - criterion->cost(down)) / (2 * h);
+        const double rounding = 8.0 * std::numeric_limits<double>::epsilon() * std::abs(criterion->cost(q)) / h;
+        ASSERT_NEAR(gradient[i], fd, 1e-6 * (1.0 + std::abs(fd)) + rounding)
+            << entry.id << " criterion " << kind << " case " << c << " dof " << model.dof(i).name << "\n  q = "
+            << q.transpose();
+        gradient[i] = 0.0;
+        ASSERT_EQ(gradient.norm(), 0.0) << entry.id << " criterion " << kind << ": other dofs than " << model.dof(i).name;
+        nonzero += fd != 0.0;
+      }
+    }
+  }
+  EXPECT_GT(nonzero, n * 50) << entry.id << ": the costs were mostly flat, so the check checked little";
+  const VectorXd defaults = default_criterion_weights(model);
+  for (int i = 0; i < n; ++i) {
+    const DofRole role = model.dof(i).role;
+    const bool heel = role == DofRole::kHeelX || role == DofRole::kHeelY || role == DofRole::kHeelYaw;
+    EXPECT_EQ(defaults[i], heel || model.dof(i).continuous ? 0.0 : 1.0) << entry.id << " " << model.dof(i).name;
+  }
+}
+
 TEST(AxisTask, DegenerateCasesAreDefinedAndContinuous) {
   const Model model = make_paper_model();
   Data data(model);
