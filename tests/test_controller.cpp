@@ -127,6 +127,76 @@ TEST(Controller, WalkingWithBalanceAllocatesNothing) {
   EXPECT_LT((c.values().head<3>() - Vector3(1.5, 0.5, 0.75)).norm(), 1e-3);
 }
 
+// A target that moves away, continuously, faster than the robot walks (0.7 m/s for 3 s;
+// the feet take at most 0.42 m/s), with no call of target_changed() (a user's target
+// stream): the growing error is not a stall (WalkingParameters::stall_time: the error has
+// to stay within 1 % of its best for that long), so one walk follows the target and
+// reaches it. Read as a stall, the walk ended 0.6 s after the target started to recede,
+// the body stopped and the walks that followed made no progress.
+TEST(Walking, ATargetRecedingFasterThanTheWalkIsFollowedInOneWalk) {
+  const Model model = make_paper_model();
+  Controller c(model);
+  c.add_task(std::make_unique<PositionTask>(model, "l_hand", "l_hand_ref"), {3.0, 0.4, 2});
+  c.reset(model.home());
+  Command cmd = c.make_command();
+  cmd.external_velocity = VectorXd::Zero(model.num_dofs());
+  cmd.task_active.setConstant(true);
+  const FootGeometry feet;
+  WalkingParameters parameters = scaled_walking_parameters(model, feet);
+  parameters.max_heel_lead = 0.0;  // a held heel pauses the stall timer: the paper's planner
+  WalkingModule walking(model, feet, parameters);
+  ControllerStatus last;
+  int walks = 0;
+  bool stalled_while_receding = false;
+  const double dt = 0.002;
+  for (int k = 0; k < 10000; ++k) {
+    const double t = k * dt;
+    cmd.targets.head<3>() = Vector3(1.5 + 0.7 * std::clamp(t - 2.0, 0.0, 3.0), 0.5, 0.75);
+    const std::uint32_t flags = walking.update(c, last, t, dt, cmd);
+    walks += (flags & kWalkTriggered) != 0;
+    if (t > 2.0 && t < 5.0 && walking.walking() && !cmd.free_dofs[model.virtual_dofs().heel_x])
+      stalled_while_receding = true;  // the walk froze the heel: it took the growing error for a stall
+    last = c.update(cmd, dt);
+    ASSERT_TRUE(last.ok()) << k;
+  }
+  EXPECT_FALSE(stalled_while_receding);
+  EXPECT_EQ(walks, 1);
+  EXPECT_FALSE(walking.walking());
+  EXPECT_LT((c.values().head<3>() - Vector3(3.6, 0.5, 0.75)).norm(), 0.01);
+}
+
+// A walk whose heel only turns, by less than the feet's places move within feet_tolerance
+// (0.07 rad: each foot's place 6 mm away) but by more than the feet's angular tolerance
+// (twice feet_tolerance in rad, 0.04): the feet step until they face the heel's yaw, not
+// only until they stand where they should. A joint row on heel_yaw asks for the turn; with
+// the heel frozen the error stalls, which starts the walk.
+TEST(Walking, AWalkThatOnlyTurnsTurnsTheFeet) {
+  const Model model = make_paper_model();
+  Controller c(model);
+  c.add_task(std::make_unique<JointTask>(model, "turn", std::vector<std::string>{"heel_yaw"}), {3.0, 0.4, 2});
+  c.reset(model.home());
+  Command cmd = c.make_command();
+  cmd.task_active.setConstant(true);
+  cmd.targets[0] = 0.07;
+  const FootGeometry feet;
+  const WalkingParameters parameters = scaled_walking_parameters(model, feet);
+  WalkingModule walking(model, feet, parameters);
+  ControllerStatus last;
+  int walks = 0;
+  const double dt = 0.002;
+  for (int k = 0; k < 3000; ++k) {
+    walks += (walking.update(c, last, k * dt, dt, cmd) & kWalkTriggered) != 0;
+    last = c.update(cmd, dt);
+    ASSERT_TRUE(last.ok()) << k;
+  }
+  ASSERT_EQ(walks, 1);
+  ASSERT_FALSE(walking.walking());
+  EXPECT_NEAR(c.q()[model.virtual_dofs().heel_yaw], 0.07, parameters.angle_tolerance);  // the walk ends within it
+  EXPECT_GE(walking.num_footsteps(), 2) << "both feet turned";
+  for (const FootPose& foot : {walking.left_foot(), walking.right_foot()})
+    EXPECT_LT(std::abs(foot.yaw - c.q()[model.virtual_dofs().heel_yaw]), 2.0 * parameters.feet_tolerance) << foot.yaw;
+}
+
 /// A command that keeps the heel standing (its dofs frozen), and the base if it is fixed.
 Command standing_command(const wbm_test::ShippedModel& entry, const Model& model, const Controller& c) {
   Command cmd = c.make_command();
@@ -362,21 +432,23 @@ TEST(Controller, SwitchingAMovingElementOffChangesQdotAtMostByTheRateLimit) {
 }
 
 // An element switched on while its value moves (the hand turning as another element moves
-// it) starts its filter from that value and that rate (section IV.F: "the trajectory
-// starts from the current value and velocity"), so the commanded task velocity does not
-// jump to zero: the filter's first rate is the value's rate of the cycle before, up to one
-// cycle of the filter's pull towards a target held at the value.
+// it) starts its filter from that value and that rate (the smooth switching of section IV.E
+// and Fig. 4; docs/solver.md: "each filter starts from the actual value and velocity"), and
+// so do rows switched on in an element
+// already partly active (the left hand's x and y beside its z), so the commanded task
+// velocity does not jump to zero: the filter's first rate is the value's rate of the cycle
+// before, up to one cycle of the filter's pull towards a target held at the value.
 TEST(Controller, AnElementSwitchedOnWhileMovingStartsFromItsValueAndRate) {
   const Model model = make_paper_model();
   Controller c(model);
   const int hand = c.add_task(std::make_unique<PositionTask>(model, "r_hand", "r_hand_ref"), {4.0, 0.4, 2});
   const int grasp = c.add_task(std::make_unique<AxisTask>(model, "r_grasp", "r_hand_ref"), {4.0, 1.0, 2});
-  const int hand_position = c.add_task(std::make_unique<PositionTask>(model, "l_hand", "l_hand_ref"), {4.0, 0.4, 2});
+  const int other = c.add_task(std::make_unique<PositionTask>(model, "l_hand", "l_hand_ref"), {4.0, 0.4, 2});
   c.reset(model.home());
   Command cmd = c.make_command();
   const TaskStack& stack = c.tasks();
-  for (int element : {grasp, hand_position})
-    cmd.task_active.segment(stack.row_offset(element), stack.element(element).dim()).setConstant(false);
+  cmd.task_active.segment(stack.row_offset(grasp), 2).setConstant(false);
+  cmd.task_active.segment(stack.row_offset(other), 2).setConstant(false);  // z held, x and y free
   cmd.targets.segment<3>(stack.target_offset(hand)) += Vector3(0.2, -0.1, 0.2);
   const double dt = 0.001;
   VectorXd before = c.values();
@@ -384,25 +456,27 @@ TEST(Controller, AnElementSwitchedOnWhileMovingStartsFromItsValueAndRate) {
     before = c.values();
     c.update(cmd, dt);
   }
-  for (int element : {grasp, hand_position}) {
-    const int t0 = stack.target_offset(element), n = stack.element(element).target_dim();
-    const VectorXd rate = (c.values().segment(t0, n) - before.segment(t0, n)) / dt;
-    ASSERT_GT(rate.norm(), element == grasp ? 0.2 : 0.005) << stack.element(element).name() << " is not moving";
-  }
   const VectorXd values = c.values();
-  VectorXd rate = (values - before) / dt;
-  for (int element : {grasp, hand_position}) {
-    const int t0 = stack.target_offset(element), n = stack.element(element).target_dim();
-    cmd.targets.segment(t0, n) = values.segment(t0, n);  // held where it is now
-    cmd.task_active.segment(stack.row_offset(element), stack.element(element).dim()).setConstant(true);
+  const VectorXd rate = (values - before) / dt;
+  // What switches on: the grasp's axis (3 target entries), the left hand's x and y.
+  struct Switched {
+    int element, first, count;
+    double moving;  // the least rate that counts as moving [rad/s or m/s]
+  };
+  for (const Switched& s : {Switched{grasp, 0, 3, 0.2}, Switched{other, 0, 2, 0.005}}) {
+    const int t0 = stack.target_offset(s.element) + s.first;
+    ASSERT_GT(rate.segment(t0, s.count).norm(), s.moving) << stack.element(s.element).name() << " is not moving";
+    cmd.targets.segment(t0, s.count) = values.segment(t0, s.count);  // held where it is now
   }
+  cmd.task_active.segment(stack.row_offset(grasp), 2).setConstant(true);
+  cmd.task_active.segment(stack.row_offset(other), 2).setConstant(true);
   ASSERT_TRUE(c.update(cmd, dt).ok());
-  for (int element : {grasp, hand_position}) {
-    const int t0 = stack.target_offset(element), n = stack.element(element).target_dim();
-    const VectorXd started = c.filter(element).velocity();
-    EXPECT_LT((started - rate.segment(t0, n)).norm(), 0.02 * rate.segment(t0, n).norm())
-        << stack.element(element).name() << ": the filter started at rate " << started.transpose()
-        << ", the value moved at " << rate.segment(t0, n).transpose();
+  for (const Switched& s : {Switched{grasp, 0, 3, 0.2}, Switched{other, 0, 2, 0.005}}) {
+    const int t0 = stack.target_offset(s.element) + s.first;
+    const VectorXd started = c.filter(s.element).velocity().segment(s.first, s.count);
+    EXPECT_LT((started - rate.segment(t0, s.count)).norm(), 0.02 * rate.segment(t0, s.count).norm())
+        << stack.element(s.element).name() << ": the filter started at rate " << started.transpose()
+        << ", the value moved at " << rate.segment(t0, s.count).transpose();
   }
 }
 

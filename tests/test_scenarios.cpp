@@ -477,6 +477,16 @@ TEST(Walking, ObjectBehindTurnsAndWalks) {
   EXPECT_GT(std::abs(final_walking(*run)[2]), M_PI / 2);  // real heel turned more than 90 deg
   EXPECT_EQ(final_walking(*run)[3], 0.0);
   EXPECT_LT(run->error.back()[run->element("l_hand")], 0.01);
+  // The walk ended with both feet turned as far as the heel (within twice feet_tolerance in
+  // rad; Walking.AWalkThatOnlyTurnsTurnsTheFeet checks a turn too small to move the feet).
+  const double heel_yaw = run->q.back()[run->model->virtual_dofs().heel_yaw];
+  const double tolerance = 2.0 * run->walking_parameters.feet_tolerance;
+  ASSERT_GE(run->footsteps.size(), 2u);
+  for (size_t k = run->footsteps.size() - 2; k < run->footsteps.size(); ++k)
+    EXPECT_LT(std::abs(std::remainder(run->footsteps[k].pose.yaw - heel_yaw, 2 * M_PI)), tolerance)
+        << (run->footsteps[k].left ? "left" : "right") << " foot at yaw " << run->footsteps[k].pose.yaw
+        << ", heel " << heel_yaw;
+  EXPECT_LT(std::abs(std::remainder(final_walking(*run)[2] - heel_yaw, 2 * M_PI)), tolerance);
 }
 
 TEST(Walking, ObjectWithinReachDoesNotWalk) {
