@@ -546,6 +546,12 @@ TEST(Controller, AnExternalVelocityIsRampedAndBrakedBeforeTheLimit) {
       largest_change = std::max(largest_change, std::abs(c.qdot()[shift] - before));
     }
     EXPECT_EQ(c.q()[shift], model.dof(shift).upper) << "k = " << k;
+    // At the limit the shift no longer moves, so x_bal = J q_dot_external (eqs. 19-21) holds
+    // only the motion that happens: none. The hand, its target its value at the limit, stays.
+    const Vector3 hand = c.values().head<3>();
+    cmd.targets.head<3>() = hand;
+    for (int i = 0; i < 200; ++i) c.update(cmd, dt);
+    EXPECT_LT((c.values().head<3>() - hand).norm(), 1e-9) << "k = " << k << ": the hand moved";
     if (k > 0.0) {
       EXPECT_LE(largest_change, k * vmax * dt * (1 + 1e-9)) << "the rate changed by up to " << largest_change;
       EXPECT_FALSE(clamped);

@@ -809,26 +809,36 @@ TEST(Solver, BoundedAndContinuousThroughASingularity) {
 // inverse-iteration step per cycle, another step near the threshold while the iterate still
 // turns) stays within 5 10^-5 eps^2 of the eigenvalue in every cycle of a sweep into the
 // stretched arm and back, with a shoulder dof frozen and released every 50 cycles, with and
-// without an eliminated joint row, and never falls below it (an upper bound). Here the
+// without an eliminated joint row and beside a block of rows of its own (the other hand's),
+// and never falls below it (an upper bound). Here the
 // Rayleigh quotient without the extra step misses by 9 10^-4 eps^2 where the dof is first
 // frozen, and 1 / |A^-1 v| after two steps near the threshold (the scheme before) by 8 10^-5 eps^2.
 TEST(Solver, SigmaMinEstimateFollowsTheEigenvalueNearTheThreshold) {
   const Model model = make_paper_model();
   const int n = model.num_dofs();
   Data data(model);
-  for (const bool joint_row : {false, true}) {
+  // Variants: the left hand alone, with a joint row on its arm, and beside the right hand on
+  // the other arm (two blocks of rows that share no free dof, each with its own iterate:
+  // resolve_blocks()).
+  for (const std::string variant : {"alone", "with the joint row", "beside the other hand"}) {
+    const bool joint_row = variant == "with the joint row", two_blocks = variant == "beside the other hand";
     TaskStack stack(model);
     stack.add(std::make_unique<PositionTask>(model, "l_hand", "l_hand_ref"));
     if (joint_row) stack.add(std::make_unique<JointTask>(model, "yaw", std::vector<std::string>{"l_shoulder_yaw"}));
+    if (two_blocks) stack.add(std::make_unique<PositionTask>(model, "r_hand", "r_hand_ref"));
     Mask free = Mask::Constant(n, false);
     for (const char* d : {"l_shoulder_pitch", "l_shoulder_roll", "l_shoulder_yaw", "l_elbow", "l_hand_rot"})
       free[model.dof_index(d)] = true;
+    if (two_blocks)
+      for (const char* d : {"r_shoulder_pitch", "r_shoulder_roll", "r_shoulder_yaw", "r_elbow", "r_hand_rot"})
+        free[model.dof_index(d)] = true;
     SolverParameters p;
     p.limit_speeds = false;
     p.nullspace_rate_change_limit = 0.0;
     const double eps2 = p.singular_threshold * p.singular_threshold;
-    WholeBodySolver solver(model, 4, p);
+    WholeBodySolver solver(model, 6, p);
     VectorXd q = model.home();
+    q[model.dof_index("r_elbow")] = -1.2;  // the other arm well away from its singularity
     VectorXd w(n);
     for (int i = 0; i < n; ++i) w[i] = free[i] ? model.dof(i).work_range * model.dof(i).work_range : 0.0;
     const int elbow = model.dof_index("l_elbow"), yaw = model.dof_index("l_shoulder_yaw");
@@ -851,10 +861,9 @@ TEST(Solver, SigmaMinEstimateFollowsTheEigenvalueNearTheThreshold) {
       const double estimate = solver.output().min_singular_value * solver.output().min_singular_value;
       if (k < 3 || exact > 4.0 * eps2) continue;  // three steps from the start; far from the threshold
       ++near;
-      ASSERT_GE(estimate, exact - 1e-9 * eps2) << "cycle " << k << (joint_row ? " with" : " without") << " the joint row";
+      ASSERT_GE(estimate, exact - 1e-9 * eps2) << "cycle " << k << ", " << variant;
       ASSERT_LT(std::abs(estimate - exact), 5e-5 * eps2)
-          << "cycle " << k << (joint_row ? " with" : " without") << " the joint row: estimate " << estimate
-          << ", eigenvalue " << exact;
+          << "cycle " << k << ", " << variant << ": estimate " << estimate << ", eigenvalue " << exact;
     }
     EXPECT_GT(near, steps / 4) << "the sweep must run near the threshold";
   }
