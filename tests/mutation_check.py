@@ -12,8 +12,8 @@ scripts/setup.sh once first), builds there without the benchmarks, and then for 
 applies the change, rebuilds (libwbm and whatever includes a changed header) and runs the
 unit tests, stopping at the first failure. Prints a line per case, KILLED (with the first
 failing tests) or SURVIVED, and exits 1 if any case survived or a case no longer applies
-(its text not found exactly once: update the case with the code). About 7 s per case on a
-2-core machine after a build of 2-3 minutes (13 minutes in all); not a CTest for that reason.
+(its text not found exactly once: update the case with the code). About 8 s per case on a
+2-core machine after a build of 3-4 minutes (20 minutes for the 124); not a CTest for that reason.
 
 The 124 cases (24 files) were written in the thirty-fifth session. Their first runs found
 nine that no test caught, not even the longer CTests (random scenarios and the rest): the

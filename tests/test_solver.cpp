@@ -820,7 +820,8 @@ TEST(Solver, SigmaMinEstimateFollowsTheEigenvalueNearTheThreshold) {
   // Variants: the left hand alone, with a joint row on its arm, and beside the right hand on
   // the other arm (two blocks of rows that share no free dof, each with its own iterate:
   // resolve_blocks()).
-  for (const std::string variant : {"alone", "with the joint row", "beside the other hand"}) {
+  for (const char* name : {"alone", "with the joint row", "beside the other hand"}) {
+    const std::string variant = name;
     const bool joint_row = variant == "with the joint row", two_blocks = variant == "beside the other hand";
     TaskStack stack(model);
     stack.add(std::make_unique<PositionTask>(model, "l_hand", "l_hand_ref"));
