@@ -280,7 +280,9 @@ std::uint32_t WalkingModule::update_walk(const Controller& c, const ControllerSt
   }
   double heel_speed = 0.0;
   for (int d : heel_dofs_) heel_speed = std::max(heel_speed, std::abs(c.qdot()[d]));
-  converge_timer_ = (heel_speed < p_.converged_speed && !holding_) || finishing_ ? converge_timer_ + dt : 0.0;
+  // (Also while the heel is held: it is then more than half a step ahead of the feet, so
+  // feet_at() is false and the walk cannot end there.)
+  converge_timer_ = heel_speed < p_.converged_speed || finishing_ ? converge_timer_ + dt : 0.0;
   if (holding_) flags |= kHeelHeld;
   const bool done = converge_timer_ >= p_.converge_time && feet_at(heel, yaw);
   const bool too_many = steps_this_walk_ >= p_.max_steps;
