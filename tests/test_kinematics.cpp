@@ -633,12 +633,22 @@ TEST(UrdfImport, ALongListOfNamesSaysHowManyItLeavesOut) {
 // MuJoCo's capsules (URDFs converted from MJCF use them for feet), which urdfdom drops with a
 // message: the soles count them too. G1's foot spheres written as capsules lying along x give
 // the same height; standing upright, 1 cm of axis more below (0.792 m before, 0.757 from the
-// ankle's origin when they were dropped).
+// ankle's origin when they were dropped); a visual capsule lower still changes nothing.
 TEST(UrdfImport, CapsulesUnderTheFeetCountForTheSoles) {
   const wbm_test::ShippedModel& g1 = wbm_test::shipped_model("g1_29dof");
   const std::string xml = wbm_test::read_file(g1.path);
-  const auto with_capsules = [&](const std::string& rpy) {
+  const auto with_capsules = [&](const std::string& rpy, bool visual_marker = false) {
     std::string edited = xml;
+    // A visual capsule 10 cm below each foot (a marker, as EngineAI PM v2's sphere): the
+    // collision capsules decide, the visual ones count only for a link without collisions.
+    for (const std::string link : {"left_ankle_roll_link", "right_ankle_roll_link"}) {
+      const std::string tag = "<link name=\"" + link + "\">";
+      const std::size_t at = edited.find(tag);
+      EXPECT_NE(at, std::string::npos) << link;
+      if (visual_marker && at != std::string::npos)
+        edited.insert(at + tag.size(), "<visual><origin xyz=\"0 0 -0.1\"/><geometry><capsule radius=\"0.01\" "
+                                       "length=\"0.02\"/></geometry></visual>");
+    }
     int replaced = 0;
     for (std::size_t at = edited.find("<collision>"); at != std::string::npos; at = edited.find("<collision>", at + 1)) {
       const std::size_t end = edited.find("</collision>", at);
@@ -657,6 +667,7 @@ TEST(UrdfImport, CapsulesUnderTheFeetCountForTheSoles) {
   const double height = original.dof(original.virtual_dofs().ub_z).upper;
   EXPECT_NEAR(with_capsules("0 1.5707963267948966 0"), height, 1e-12);
   EXPECT_NEAR(with_capsules("0 0 0"), height + 0.01, 1e-12);
+  EXPECT_NEAR(with_capsules("0 0 0", true), height + 0.01, 1e-12);
 }
 
 TEST(UrdfImport, TheShippedRobotsStandOnTheirSoles) {
@@ -672,6 +683,113 @@ TEST(UrdfImport, TheShippedRobotsStandOnTheirSoles) {
       lowest = std::min(lowest, wbm::frame_position(model, data, f).z());
     EXPECT_NEAR(lowest, above, 5e-4) << id;
   }
+}
+
+// Links welded by fixed joints become one body: masses add, the centre of mass is their
+// mass-weighted mean, and each link's inertia, turned into the body's frame (its joint's and its
+// inertial's rotations), is shifted to that centre by the parallel-axis theorem. Checked by hand:
+// "base" (1 kg, diag(1, 2, 3)) with "cap" (1 kg, diag(4, 5, 6)) welded 1 m above it and turned
+// by yaw pi/2 (so diag(5, 4, 6) in the base's frame): 2 kg at (0, 0, 0.5), each 0.5 m off it
+// (m d^2 = 0.25 about x and y, none about z), diag(6.5, 6.5, 9). The arm's inertial is turned by
+// roll pi/2, which moves its off-diagonal ixy = 0.1 to the x-z entries.
+TEST(UrdfImport, WeldedLinksInertialsAreMergedAboutTheirCommonCentre) {
+  const std::string xml = R"(<robot name="inertials">
+  <link name="base"><inertial><mass value="1"/><inertia ixx="1" ixy="0" ixz="0" iyy="2" iyz="0" izz="3"/></inertial></link>
+  <link name="cap"><inertial><mass value="1"/><inertia ixx="4" ixy="0" ixz="0" iyy="5" iyz="0" izz="6"/></inertial></link>
+  <link name="arm"><inertial><origin xyz="0.1 0 0" rpy="1.5707963267948966 0 0"/><mass value="2"/>
+    <inertia ixx="1" ixy="0.1" ixz="0" iyy="2" iyz="0" izz="3"/></inertial></link>
+  <joint name="weld" type="fixed"><parent link="base"/><child link="cap"/>
+    <origin xyz="0 0 1" rpy="0 0 1.5707963267948966"/></joint>
+  <joint name="shoulder" type="revolute"><parent link="base"/><child link="arm"/><origin xyz="0 0.2 0"/>
+    <axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+</robot>)";
+  const Model model = wbm::parse_urdf(xml, {}, "inertials.urdf");
+  const wbm::Inertial& base = model.body(model.virtual_dofs().upper_body).inertial;
+  ASSERT_EQ(model.body(model.virtual_dofs().upper_body).name, "base");
+  EXPECT_NEAR(base.mass, 2.0, 1e-15);
+  EXPECT_LT((base.com - Vector3(0, 0, 0.5)).norm(), 1e-15);
+  EXPECT_LT((base.inertia - Vector3(6.5, 6.5, 9.0).asDiagonal().toDenseMatrix()).cwiseAbs().maxCoeff(), 1e-12)
+      << base.inertia;
+  const wbm::Inertial& arm = model.body(model.num_bodies() - 1).inertial;
+  ASSERT_EQ(model.body(model.num_bodies() - 1).name, "arm");
+  EXPECT_NEAR(arm.mass, 2.0, 1e-15);
+  EXPECT_LT((arm.com - Vector3(0.1, 0, 0)).norm(), 1e-15);
+  wbm::Matrix3 expected;
+  expected << 1.0, 0.0, 0.1, 0.0, 3.0, 0.0, 0.1, 0.0, 2.0;
+  EXPECT_LT((arm.inertia - expected).cwiseAbs().maxCoeff(), 1e-12) << arm.inertia;
+}
+
+// default_limits (--default-limits) fills in what a joint's <limit> leaves out: a revolute
+// joint without a position range gets [-pi, pi] rad, a prismatic one [-1, 1] m; without a
+// speed limit 2 rad/s and 0.5 m/s (a continuous joint without <limit> too). A negative effort
+// limit means none (0), with or without the option.
+TEST(UrdfImport, DefaultLimitsFillWhatTheFileLeavesOut) {
+  const std::string xml = R"(<robot name="defaults">
+  <link name="base"><inertial><mass value="1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link>
+  <link name="a"/><link name="b"/><link name="c"/><link name="d"/>
+  <joint name="turn" type="revolute"><parent link="base"/><child link="a"/><axis xyz="0 0 1"/>
+    <limit effort="1" velocity="0"/></joint>
+  <joint name="slide" type="prismatic"><parent link="a"/><child link="b"/><axis xyz="1 0 0"/>
+    <limit lower="0" upper="0" effort="1" velocity="0"/></joint>
+  <joint name="spin" type="continuous"><parent link="b"/><child link="c"/><axis xyz="0 1 0"/></joint>
+  <joint name="no_effort" type="revolute"><parent link="c"/><child link="d"/><axis xyz="0 1 0"/>
+    <limit lower="-1" upper="1" effort="-1" velocity="3"/></joint>
+</robot>)";
+  wbm::UrdfImportOptions options;
+  options.default_limits = true;
+  const Model model = wbm::parse_urdf(xml, options, "defaults.urdf");
+  const wbm::Dof& turn = model.dof(model.dof_index("turn"));
+  EXPECT_EQ(turn.lower, -M_PI);
+  EXPECT_EQ(turn.upper, M_PI);
+  EXPECT_EQ(turn.max_speed, 2.0);
+  const wbm::Dof& slide = model.dof(model.dof_index("slide"));
+  EXPECT_EQ(slide.lower, -1.0);
+  EXPECT_EQ(slide.upper, 1.0);
+  EXPECT_EQ(slide.max_speed, 0.5);
+  const wbm::Dof& spin = model.dof(model.dof_index("spin"));
+  EXPECT_TRUE(spin.continuous);
+  EXPECT_EQ(spin.max_speed, 2.0);
+  const wbm::Dof& no_effort = model.dof(model.dof_index("no_effort"));
+  EXPECT_EQ(no_effort.max_effort, 0.0);
+  EXPECT_EQ(no_effort.max_speed, 3.0);
+  EXPECT_EQ(no_effort.upper, 1.0);
+  const std::string one_joint = R"(<robot name="no_effort">
+  <link name="base"><inertial><mass value="1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link>
+  <link name="d"/>
+  <joint name="no_effort" type="revolute"><parent link="base"/><child link="d"/><axis xyz="0 1 0"/>
+    <limit lower="-1" upper="1" effort="-1" velocity="3"/></joint>
+</robot>)";  // without the option: a joint that needs none
+  const Model plain = wbm::parse_urdf(one_joint, {}, "no_effort.urdf");
+  EXPECT_EQ(plain.dof(plain.dof_index("no_effort")).max_effort, 0.0);
+}
+
+// A locked leg is welded at its joints' zero values, a mimic joint in it at its offset (what
+// the mimic formula gives for a master at 0): its links lie where the free model puts them at
+// zero joint values, and the root stands as high above the ground as the foot lies below it.
+TEST(UrdfImport, ALockedLegIsWeldedWithItsMimicJointsAtTheirOffsets) {
+  const std::string xml = R"(<robot name="mimic_leg">
+  <link name="pelvis"><inertial><mass value="5"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link>
+  <link name="thigh"/><link name="shin"/><link name="foot"/>
+  <joint name="hip" type="revolute"><parent link="pelvis"/><child link="thigh"/><origin xyz="0 0 -0.1"/>
+    <axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+  <joint name="knee" type="revolute"><parent link="thigh"/><child link="shin"/><axis xyz="0 1 0"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/><mimic joint="hip" multiplier="2" offset="0.5"/></joint>
+  <joint name="ankle" type="fixed"><parent link="shin"/><child link="foot"/><origin xyz="0 0 -0.4"/></joint>
+</robot>)";
+  wbm::UrdfImportOptions legs;
+  legs.legs = {"thigh"};
+  const Model locked = wbm::parse_urdf(xml, legs, "mimic_leg.urdf");
+  const Model free = wbm::parse_urdf(xml, {}, "mimic_leg.urdf");
+  EXPECT_NEAR(locked.dof(locked.virtual_dofs().ub_z).upper, 0.1 + 0.4 * std::cos(0.5), 1e-12);
+  const auto foot_from_pelvis = [](const Model& model) {
+    Data data(model);
+    wbm::forward_kinematics(model, data, wbm::upright_base_configuration(model, Eigen::VectorXd::Zero(model.num_dofs())));
+    return Vector3(wbm::frame_position(model, data, model.frame_index("foot")) -
+                   wbm::frame_position(model, data, model.frame_index("pelvis")));
+  };
+  const Vector3 expected(-0.4 * std::sin(0.5), 0.0, -0.1 - 0.4 * std::cos(0.5));
+  EXPECT_LT((foot_from_pelvis(locked) - expected).norm(), 1e-12) << foot_from_pelvis(locked).transpose();
+  EXPECT_LT((foot_from_pelvis(free) - expected).norm(), 1e-12) << foot_from_pelvis(free).transpose();
 }
 
 // Frames added to an imported model (a hand point at the end of H1's forearm, where the URDF
@@ -767,7 +885,8 @@ TEST(UrdfImport, AddedFramesThatDoNotFitAreErrors) {
   EXPECT_EQ(parsed.rpy, Vector3(0, 1.5, 0));
   EXPECT_EQ(wbm::parse_added_frame("tip:left_elbow_link:0.3,0,0").rpy, Vector3::Zero());
   for (const char* bad : {"tip", "tip:link", "tip:link:1,2", "tip:link:1,2,3,4", "tip:link:1,2,x", ":link:1,2,3",
-                          "tip::1,2,3", "tip:link:1,2,3:0,0", "tip:link:1,2,3:0,0,0:9", "tip:link:1,2,nan"}) {
+                          "tip::1,2,3", "tip:link:1,2,3:0,0", "tip:link:1,2,3:0,0,0:9", "tip:link:1,2,nan",
+                          "tip:link:1,2,3m", "tip:link:1,2,3:0,0,0.5rad"}) {
     try {
       wbm::parse_added_frame(bad);
       ADD_FAILURE() << bad << " accepted";
@@ -1015,6 +1134,21 @@ TEST(UrdfImport, ACutOffRootLinkBelowTheRootIsOnTheGround) {
     return m.dof(m.virtual_dofs().ub_z).upper;
   };
   EXPECT_EQ(root_height(base_link), 1.0);
+  // Cut off below the root (Pepper's base_link, 0.33 m below its Tibia; here 2 cm): on the
+  // ground, however little below.
+  std::string low_base_link = base_link;
+  low_base_link.replace(low_base_link.find(at_root), at_root.size(),
+                        "<child link=\"base\"/>\n    <origin xyz=\"0 0 0.02\" rpy=\"0 0 0\"/>");
+  EXPECT_NEAR(root_height(low_base_link), 0.02, 1e-12);
+  // A root link with mass is a body, even with a single fixed joint: it stays the root.
+  std::string heavy_world = xml;
+  const std::string world_link = "<link name=\"world\"/>";
+  ASSERT_NE(heavy_world.find(world_link), std::string::npos);
+  heavy_world.replace(heavy_world.find(world_link), world_link.size(),
+                      "<link name=\"world\"><inertial><mass value=\"50\"/><inertia ixx=\"1\" ixy=\"0\" ixz=\"0\" "
+                      "iyy=\"1\" iyz=\"0\" izz=\"1\"/></inertial></link>");
+  const Model heavy = wbm::parse_urdf(heavy_world, {}, "dual_arm_heavy_world.urdf");
+  EXPECT_EQ(heavy.body(heavy.virtual_dofs().upper_body).name, "world");
   std::string footprint = xml;
   for (std::size_t at = footprint.find("\"world\""); at != std::string::npos; at = footprint.find("\"world\"", at))
     footprint.replace(at, 7, "\"base_footprint\"");
@@ -1560,6 +1694,14 @@ TEST(ModelBuilder, RejectsValuesThatWouldOverflow) {
        "dof 'j': effort limit must be finite and >= 0 (0: not given), got -1"},
       {[&](wbm::Dof& d, wbm::Body&, wbm::Frame&) { d.max_effort = nan; },
        "dof 'j': effort limit must be finite and >= 0 (0: not given), got nan"},
+      {[&](wbm::Dof& d, wbm::Body&, wbm::Frame&) { d.max_speed = 0.0; },
+       "dof 'j': speed limit must be finite and > 0, got 0"},
+      // An axis or a rotation off by a thousandth is a typo, not rounding (the URDF import
+      // normalises the axes it reads, within 1 %).
+      {[&](wbm::Dof&, wbm::Body& b, wbm::Frame&) { b.axis = Vector3(0.0, 0.0, 1.001); },
+       "body 'link': joint axis (0, 0, 1.001) is not a unit vector (norm 1.001)"},
+      {[&](wbm::Dof&, wbm::Body& b, wbm::Frame&) { b.X_PJ.R *= 1.001; },
+       "body 'link': joint offset rotation is not orthonormal"},
       // Joint names kept for the export must name one joint each (a URDF cannot hold two).
       {[&](wbm::Dof&, wbm::Body&, wbm::Frame& f) { f.joint_name = std::string("j"); },
        "joint name 'j' is given to frame 'tip' and to dof 'j'"},
@@ -1600,6 +1742,21 @@ TEST(ModelBuilder, RejectsValuesThatWouldOverflow) {
     } catch (const wbm::ModelError& e) {
       EXPECT_NE(std::string(e.what()).find(change.expected), std::string::npos) << "got: " << e.what();
     }
+  }
+  // A dof no body follows.
+  wbm::ModelBuilder idle("idle_dof");
+  add_trunk_and_arm(idle);
+  wbm::Dof spare;
+  spare.name = "spare";
+  spare.lower = -1.0;
+  spare.upper = 1.0;
+  spare.max_speed = 1.0;
+  idle.add_dof(spare);
+  try {
+    idle.build();
+    ADD_FAILURE() << "a dof that drives no body was accepted";
+  } catch (const wbm::ModelError& e) {
+    EXPECT_NE(std::string(e.what()).find("dof 'spare' drives no body"), std::string::npos) << e.what();
   }
 }
 

@@ -63,11 +63,11 @@ const std::vector<Case>& catalogue() {
       // The root link's origin at the feet, legs that do not point down from the hips (so no
       // pivot at the hips is taken): the links welded to it higher up are named as roots.
       {"root_at_feet_legs_folded.urdf",
-       "root_at_feet_legs_folded.urdf:12: leg link 'foot_l', the legs' lowest at zero joint values, is not below the "
+       "root_at_feet_legs_folded.urdf:13: leg link 'foot_l', the legs' lowest at zero joint values, is not below the "
        "root link's origin, less than a tenth of the legs' length (0.538516 m from a leg's first link to its farthest): "
        "the legs do not point down. If the root link's z axis is not up, give its orientation (root_rpy, --root-rpy); if "
        "its origin lies at the feet (as in some CAD exports), choose a link at the hips or above as the root (root, "
-       "--root) (links welded to it higher up: 'imu' 0.33 m above the legs' lowest) or give the upper body's pivot "
+       "--root) (links welded to it higher up: 'imu' 0.68 m above the legs' lowest) or give the upper body's pivot "
        "above it (upper_body_pivot, --upper-body-pivot); if these are not the legs, name the first link of each (legs, "
        "--legs); or give the root height (root_height, --root-height)",
        "", {"thigh_l", "thigh_r"}},
@@ -98,6 +98,9 @@ const std::vector<Case>& catalogue() {
       {"dynamics_without_values.urdf",
        "dynamics_without_values.urdf:12: joint 'j1': <dynamics> has neither damping=\"...\" nor friction=\"...\"", "",
        {}},
+      {"floating_to_link_with_joints.urdf",
+       "floating_to_link_with_joints.urdf:19: joint 'free' (floating) leads to link 'hand', which is not a massless "
+       "world link without other joints", "", {}},
       {"floating_inside.urdf",
        "floating_inside.urdf:16: joint 'free' (floating) leads to link 'hand', which is not a massless world link", "",
        {}},
@@ -136,6 +139,8 @@ const std::vector<Case>& catalogue() {
        "", {}},
       {"negative_mass.urdf", "negative_mass.urdf:8: link 'l1': negative mass -0.5", "", {}},
       {"inertial_without_mass.urdf", "inertial_without_mass.urdf:7: link 'l1': <inertial> lacks <mass>", "", {}},
+      {"lower_just_above_upper.urdf",
+       "lower_just_above_upper.urdf:12: joint 'j1': lower limit 0.3 is above upper limit 0.2", "", {}},
       {"lower_above_upper.urdf", "lower_above_upper.urdf:11: joint 'j1': lower limit 1.5 is above upper limit -1.5", "",
        {}},
       {"zero_range.urdf", "zero_range.urdf:11: joint 'j1': no position range (lower == upper)", "", {}},
@@ -159,6 +164,7 @@ const std::vector<Case>& catalogue() {
       {"planar_joint.urdf", "planar_joint.urdf:7: joint 'j1': planar joints are not supported", "", {}},
       {"bad_number.urdf", "bad_number.urdf:10: joint 'j1': <axis xyz> has 'x' where a finite number was expected", "", {}},
       {"wrong_number_count.urdf", "wrong_number_count.urdf:12: joint 'j1': <origin xyz> needs 3 numbers, found 2", "", {}},
+      {"too_many_numbers.urdf", "too_many_numbers.urdf:13: joint 'j1': <origin xyz> needs 3 numbers, found 4", "", {}},
       // Numbers urdfdom reads but wbm does not use: checked first, so that the line is named.
       {"hex_number.urdf", "hex_number.urdf:11: joint 'j1': <limit velocity> has '0x10' where a finite number was expected",
        "", {}},
