@@ -118,8 +118,10 @@ TEST(Cli, ModelInfoNotesLegsThatDoNotPointDown) {
                                                              r.out.find("note: the legs") - 6));
   }
   EXPECT_EQ(parse(wbm_cli(g1_info + " --json"))["notes"], json::array());
-  // Tilted by less than 45 degrees the legs still point down; dropped legs say nothing.
+  // Tilted by less than 45 degrees (0.7 rad) the legs still point down; dropped legs say nothing.
   EXPECT_EQ(wbm_cli(g1_info + " --root-rpy 0,0.7,0").out.find("note: the legs"), std::string::npos);
+  // By more (1 rad: 1.56 times as far backward as down), they point backward.
+  EXPECT_NE(wbm_cli(g1_info + " --root-rpy 0,1,0").out.find("note: the legs point backward"), std::string::npos);
   EXPECT_EQ(wbm_cli(g1_info + " --root-rpy 0,1.5707963,0 --drop-legs").out.find("note: the legs"), std::string::npos);
 }
 

@@ -19,6 +19,7 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/SVD>
 #include <nlohmann/json.hpp>
 
 #include "leg_poser.hpp"
@@ -190,6 +191,26 @@ TEST(Balance, CompensationKeepsTrackingAsAccurateAsWithoutBalance) {
   EXPECT_GT(share, 0.25);
   EXPECT_LT(share, 0.45);
   EXPECT_EQ(held[0]["remedy"], "the built-in paper model's range is fixed");
+  // The needed shift replayed from the record: over the cycles with the shift at its limit, the
+  // limit plus the centre of mass's offset from the centroid divided by the share of the mass
+  // the shift moves, measured here by moving it (the heel body's 10 kg stay behind).
+  const Model& m = *with->model;
+  Data d(m);
+  VectorXd q = with->q.back();
+  forward_kinematics(m, d, q);
+  const double com_x = center_of_mass_position(m, d).x();
+  q[ub_x] += 1e-3;
+  forward_kinematics(m, d, q);
+  const double mass_share = (center_of_mass_position(m, d).x() - com_x) / 1e-3;
+  EXPECT_GT(mass_share, 0.5);
+  EXPECT_LT(mass_share, 0.95);
+  double needed = 0.0;
+  for (size_t k = 0; k < with->balance.size(); ++k)
+    if (std::abs(with->q[k][ub_x] + 0.02) < 1e-9)
+      needed = std::min(needed, with->q[k][ub_x] + (with->balance[k][2] - with->balance[k][0]) / mass_share);
+  std::cout << "needed shift: reported " << held[0]["needed"].get<double>() << " m, replayed " << needed
+            << " m (mass share " << mass_share << ")\n";
+  EXPECT_NEAR(held[0]["needed"].get<double>(), needed, 2e-5);
 }
 
 // A timeline that switches balance off in a scenario without a balance section (the
@@ -1571,8 +1592,36 @@ TEST(Scenarios, LockedLegsAreDrawnStandingOnTheFeet) {
   const DrawnFeet middle = drawn_feet(*nao, step.time - 0.5 * nao->walking_parameters.step_duration);
   EXPECT_NEAR((middle.pose[side].position - 0.5 * (from.position + step.pose.position)).norm(), 0.0, 1e-12);
   EXPECT_NEAR(middle.lift[side], 0.2 * nao->walking_parameters.max_step_length, 1e-12);
-  EXPECT_NEAR((drawn_feet(*nao, step.time).pose[side].position - step.pose.position).norm(), 0.0, 1e-12);
-  EXPECT_EQ(drawn_feet(*nao, step.time).lift[side], 0.0);
+  // Moved along the floor by a smooth step (3 s^2 - 2 s^3): a quarter of the swing's time
+  // covers 5/32 of the way, and the foot starts and lands at rest.
+  const DrawnFeet quarter = drawn_feet(*nao, step.time - 0.75 * nao->walking_parameters.step_duration);
+  EXPECT_NEAR((quarter.pose[side].position - (from.position + 0.15625 * (step.pose.position - from.position))).norm(), 0.0,
+              1e-12);
+  // Each leg is posed on its own foot: H1 (whose legs reach its feet while it walks) half-way
+  // through a step draws the swinging foot's ankle higher than the standing foot's, by most of
+  // the lift (the legs reach the feet as near as their joints allow).
+  {
+    const auto h1_walk = run_scenario(walk_scenario(kNarrowAndWideFeet[1], "length: 0.15, width: 0.07, ", "1.5, 0.4, 0.0"));
+    const Model& m = *h1_walk->model;
+    ASSERT_GE(h1_walk->footsteps.size(), 4u);
+    const std::array<int, 2> ankles = {m.frame_index("left_ankle_link"), m.frame_index("right_ankle_link")};
+    Data data(m);
+    for (const int n : {2, 3}) {
+      const Footstep& swing = h1_walk->footsteps[n];
+      const int swing_side = swing.left ? 0 : 1;
+      LegPoser poser(h1_walk->scenario, m, h1_walk->feet.spacing);
+      ASSERT_TRUE(poser.usable());
+      const double t_mid = swing.time - 0.5 * h1_walk->walking_parameters.step_duration;
+      const auto cycle = std::lower_bound(h1_walk->time.begin(), h1_walk->time.end(), t_mid - 1e-12) - h1_walk->time.begin();
+      forward_kinematics(m, data, h1_walk->q[cycle]);
+      const DrawnFeet feet = drawn_feet(*h1_walk, t_mid);
+      poser.pose(data, feet);
+      const double raised =
+          poser.leg_frame_position(ankles[swing_side])->z() - poser.leg_frame_position(ankles[1 - swing_side])->z();
+      EXPECT_GT(raised, 0.5 * feet.lift[swing_side]) << "footstep " << n;  // 74 and 83 of 86 mm
+      EXPECT_GT(feet.lift[swing_side], 0.02);
+    }
+  }
   // The built-in model has no legs to pose (its heel-to-pelvis link stands for them).
   const Model paper = make_paper_model();
   EXPECT_FALSE(LegPoser(shipped("fig7_top_right_hand"), paper, 0.18).usable());
@@ -1789,6 +1838,108 @@ TEST(FixedBase, DualArmTakesLiftsAndPushesABoxWithItsBaseUprightAndFrozen) {
   EXPECT_NEAR(run->actual_of("l_tool", last).x(), 0.45 + 0.1, 0.02);
 }
 
+// The summary's numbers against their definitions, on a run in which nothing moves (every dof
+// frozen, so that each error stays what the timeline made it): an axis element's error is the
+// angle between its axis and the target, an attitude element's the angle of the rotation
+// between value and target, both in degrees; max_error counts the cycles an element is active
+// only (1 m off while inactive, 10 mm once active); min_distance_to_limit is a joint's distance
+// to its nearer limit. An event at t = 0 is in the first cycle's command, and duration / dt
+// (0.3 / 0.1 = 2.9999999999999996 in floating point) rounds to whole cycles.
+TEST(Scenarios, TheSummaryMeasuresWhatItsFieldsSay) {
+  const Model paper = make_paper_model();
+  std::string frozen;
+  for (int i = 0; i < paper.num_dofs(); ++i) frozen += (i ? ", " : "") + paper.dof(i).name;
+  const Dof& elbow = paper.dof(paper.dof_index("l_elbow"));
+  std::ostringstream yaml;
+  yaml << std::setprecision(17) << "name: summary\nrobot: {builtin: paper}\ndt: 0.1\nduration: 0.3\nfrozen: [" << frozen
+       << "]\ninitial: {l_elbow: " << elbow.upper - 0.001 << "}\n"
+       << "tasks:\n"
+          "  - {name: grasp, type: axis, frame: l_hand_ref}\n"
+          "  - {name: head, type: attitude, frame: head_camera}\n"
+          "  - {name: late, type: position, frame: r_hand_ref}\n"
+          "timeline:\n"
+          "  - {t: 0, activate: [grasp, head], targets: {grasp: [0, 1, 0]}, relative_targets: {head: [0.3, -0.2, 0.4], "
+          "late: [1, 0, 0]}}\n"
+          "  - {t: 0.2, activate: [late], relative_targets: {late: [0.01, 0, 0]}}\n";
+  const auto run = run_scenario(parse_scenario(yaml.str(), "summary.yaml", "."));
+  ASSERT_EQ(run->num_cycles(), 4);  // t = 0, 0.1, 0.2, 0.3
+  EXPECT_EQ(run->commanded_of("grasp", 1), Eigen::Vector3d(0, 1, 0));
+  const nlohmann::json summary = summarize(*run);
+  const nlohmann::json& elements = summary["elements"];
+  const Eigen::Vector3d axis = run->actual_of("grasp", 3).head<3>().normalized();
+  const double axis_angle = std::acos(std::clamp(axis.y(), -1.0, 1.0)) * 180.0 / M_PI;
+  EXPECT_GT(axis_angle, 10.0);
+  EXPECT_NEAR(elements["grasp"]["final_error"].get<double>(), axis_angle, 1e-9);
+  const Eigen::Matrix3d R_value = AttitudeTask::kardan_rotation(run->actual_of("head", 3).head<3>());
+  const Eigen::Matrix3d R_target = AttitudeTask::kardan_rotation(run->commanded_of("head", 3).head<3>());
+  const double turn = std::acos(std::clamp(((R_value.transpose() * R_target).trace() - 1.0) / 2.0, -1.0, 1.0));
+  EXPECT_GT(turn, 0.2);
+  EXPECT_NEAR(elements["head"]["final_error"].get<double>(), turn * 180.0 / M_PI, 1e-6);
+  EXPECT_NEAR(elements["late"]["max_error"].get<double>(), 10.0, 1e-9);  // mm
+  EXPECT_NEAR(summary["min_distance_to_limit"]["value"].get<double>(), 0.001, 1e-12);
+  EXPECT_EQ(summary["min_distance_to_limit"]["dof"], "l_elbow");
+}
+
+// The report's condition number of a hand's position rows weighs each dof's column by its
+// work range (so that metres of the upper body's shift and radians of a joint count by how
+// far each can move), and leaves the virtual dofs out for the limb's alone.
+TEST(Scenarios, ThePositionConditionNumberWeighsEachDofByItsWorkRange) {
+  const Model m = make_paper_model();
+  Data d(m);
+  std::mt19937_64 rng(36);
+  const int f = m.frame_index("l_hand_ref");
+  for (int c = 0; c < 20; ++c) {
+    forward_kinematics(m, d, wbm_test::random_configuration(m, rng));
+    Eigen::MatrixXd J(6, m.num_dofs());
+    frame_jacobian(m, d, f, J);
+    for (const bool joints_only : {false, true}) {
+      Eigen::MatrixXd Jp = J.topRows<3>();
+      for (int i = 0; i < m.num_dofs(); ++i)
+        Jp.col(i) *= joints_only && m.dof(i).role != DofRole::kJoint ? 0.0 : m.dof(i).work_range;
+      const Eigen::VectorXd sv = Eigen::JacobiSVD<Eigen::MatrixXd>(Jp).singularValues();
+      EXPECT_NEAR(position_condition_number(m, d, f, joints_only) / (sv[0] / sv[2]), 1.0, 1e-9) << c;
+    }
+  }
+}
+
+// Switched off by the timeline, balance hands the upper body's shift dofs back to the solver
+// (b_C = 1, no x_bal): a joint element can then move them (they stayed frozen, driven by the
+// last balance velocity, if nothing released them).
+TEST(Balance, SwitchedOffItHandsTheUpperBodysShiftBackToTheSolver) {
+  const std::string yaml =
+      "name: off\nrobot: {builtin: paper}\ndt: 0.002\nduration: 3\nfrozen: [heel_x, heel_y, heel_yaw]\n"
+      "balance: {enabled: true}\n"
+      "tasks: [{name: shift, type: joints, dofs: [upper_body_x]}]\n"
+      "timeline:\n  - {t: 1, balance: false, activate: [shift], targets: {shift: [0.1]}}\n";
+  const auto run = run_scenario(parse_scenario(yaml, "off.yaml", "."));
+  const int ub_x = run->model->virtual_dofs().ub_x;
+  EXPECT_LT(std::abs(run->q.front()[ub_x] - 0.1), 0.09);
+  EXPECT_NEAR(run->q.back()[ub_x], 0.1, 1e-3);
+  EXPECT_FALSE(run->balance_on_at_end);
+}
+
+// A walk given up on (a target 2.5 m up: four short walks, the last step at 6 s) starts
+// again when a relative target moves the hand's target where walking helps (1 m further
+// ahead, down to table height): a relative target is a new target as an absolute one is.
+TEST(Walking, ARelativeTargetAfterGivingUpStartsANewWalk) {
+  std::string yaml = wbm_test::read_file(wbm_test::source_path("scenarios/walk_object_ahead.yaml"));
+  const std::string target = "targets: {l_hand: [1.5, 0.5, 0.75]";
+  ASSERT_NE(yaml.find(target), std::string::npos);
+  yaml.replace(yaml.find(target), target.size(), "targets: {l_hand: [0.5, 0.3, 2.5]");
+  yaml.replace(yaml.find("duration: 14.0"), 14, "duration: 24.0");
+  yaml += "  - {t: 12, relative_targets: {l_hand: [1.0, 0.2, -0.3]}}\n";
+  const auto run = run_scenario(parse_scenario(yaml, "walk_again.yaml", "."));
+  ASSERT_FALSE(run->footsteps.empty());
+  EXPECT_LT(run->footsteps.front().time, 6.0);
+  const auto steps_between = [&](double t0, double t1) {
+    return std::count_if(run->footsteps.begin(), run->footsteps.end(),
+                         [&](const Footstep& f) { return f.time > t0 && f.time < t1; });
+  };
+  EXPECT_EQ(steps_between(7.0, 12.0), 0);  // given up
+  EXPECT_GE(steps_between(12.0, 24.0), 4);
+  EXPECT_LT(run->error.back()[run->element("l_hand")], 1e-3);
+}
+
 struct BadScenario {
   std::string yaml;
   const char* message;
@@ -1805,6 +1956,8 @@ TEST(Scenarios, BadFilesNameTheLineAndField) {
       {"name: x\ntasks:\n  - {name: a, type: position}\n", "bad.yaml:3: tasks[0].frame: missing"},
       {"name: x\ntasks:\n  - {name: a, type: position, frame: f, gain: -2}\n", "bad.yaml:3: tasks[0].gain: expected a number >= 0"},
       {"name: x\ntasks:\n  - {name: a, type: position, frame: f, filter: {order: 1}}\n", "bad.yaml:3: tasks[0].filter.order: expected an integer in [2, 6]"},
+      {"name: x\ntasks:\n  - {name: a, type: position, frame: f, filter: {order: 7}}\n", "bad.yaml:3: tasks[0].filter.order: expected an integer in [2, 6]"},
+      {"name: x\ntasks:\n  - {name: a, type: position, frame: f, filter: {max_speed: 0}}\n", "bad.yaml:3: tasks[0].filter.max_speed: expected a number > 0"},
       // A denormal bandwidth passed "> 0", and the filter's start from a moving value
       // (x + lag * v / bandwidth) overflowed to NaN.
       {"name: x\ntasks:\n  - {name: a, type: position, frame: f, filter: {bandwidth: 1e-320}}\n",
