@@ -3,28 +3,36 @@
 
   python3 tests/mutation_check.py [--work DIR] [--only ID,ID,...] [--list] [--jobs N]
 
-"A test that cannot fail is a defect": each case below changes one rule of the library (a
-sign, a factor, a bound, a branch, a SIMD lane or loop tail, a model parameter) and the
-unit tests (`ctest -L unit`) must then fail. The script copies the files git tracks (as
-they are in the working tree, so uncommitted changes count) to a work directory (a temp
+"A test that cannot fail is a defect": each case below changes one rule of the library or of
+the command-line tool's code the unit tests cover (a sign, a factor, a bound, a branch, a SIMD
+lane or loop tail, a model parameter) and the unit tests (`ctest -L unit`) must then fail.
+The script copies the files git tracks (as they are in the working tree, so uncommitted
+changes count; a new file must be added with `git add` first) to a work directory (a temp
 dir unless given; web/dist is copied too, which the configuration needs: run
 scripts/setup.sh once first), builds there without the benchmarks, and then for each case
-applies the change, rebuilds (libwbm and whatever includes a changed header) and runs the
-unit tests, stopping at the first failure. Prints a line per case, KILLED (with the first
-failing tests) or SURVIVED, and exits 1 if any case survived or a case no longer applies
-(its text not found exactly once: update the case with the code). About 8 s per case on a
-2-core machine after a build of 3-4 minutes (20 minutes for the 123); not a CTest for that reason.
+applies the change, rebuilds (whatever the changed file is part of) and runs the unit tests,
+stopping at the first failure. Prints a line per case, KILLED (with the first failing tests)
+or SURVIVED, and exits 1 if any case survived or a case no longer applies (its text not
+found exactly once: update the case with the code). About 8 s per case of src/ and 15-30 s
+per case of apps/ on a 2-core machine after a build of 3-4 minutes (about an hour for the
+201); not a CTest for that reason.
 
-The 123 cases (24 files) were written in the thirty-fifth session. Their first runs found
-nine that no test caught, not even the longer CTests (random scenarios and the rest): the
-squared-distance criterion's gradient (never checked against its cost), a filter switched on
-while its value moves and rows switched on beside active ones (both started at rest), the
-balance law's dead zone, near-unit vectors left unnormalised, a target receding faster than
-the walk (read as a stall; the runner's target_changed() masked it), a walk that only turns
-(its feet left unturned), the extra inverse-iteration step of independent blocks of rows,
-an external velocity stopped at a limit still fed to the tasks as x_bal (without braking);
-each now has a test. One more case could not be told from the original by any run (the
-walking converge timer paused while the heel is held): that condition was dead and is gone.
+The first 123 cases (src/, 24 files) were written in the thirty-fifth session. Their first
+runs found nine that no test caught, not even the longer CTests (random scenarios and the
+rest): the squared-distance criterion's gradient (never checked against its cost), a filter
+switched on while its value moves and rows switched on beside active ones (both started at
+rest), the balance law's dead zone, near-unit vectors left unnormalised, a target receding
+faster than the walk (read as a stall; the runner's target_changed() masked it), a walk that
+only turns (its feet left unturned), the extra inverse-iteration step of independent blocks
+of rows, an external velocity stopped at a limit still fed to the tasks as x_bal (without
+braking); each now has a test. One more case could not be told from the original by any run
+(the walking converge timer paused while the heel is held): that condition was dead and is
+gone. The thirty-sixth session added 55 cases of the URDF import and the model builder and
+23 of the tool's scenario runner, reader, drawn legs and model notes (apps/); 16 and 15 of
+them survived at first, among them the import's inertials (never compared with anything),
+default limits, a locked leg's mimic offsets, a test file whose comment named a rule it never
+reached, and most of the run summary's numbers; each now has a test. A loop check given ten
+times the steps was dropped as equivalent (a loop is found either way).
 Standard library only.
 """
 import argparse
@@ -440,6 +448,252 @@ CASES = [
     ('support_centroid', 'src/balance.cpp',
      'poly.centroid_ = std::abs(area) > 1e-12 ? Vector2(c / (3.0 * area))',
      'poly.centroid_ = std::abs(area) > 1e-12 ? Vector2(c / (6.0 * area))'),
+    # A third list (thirty-sixth session): the URDF import's checks, soles, inertials, tree
+    # and root placement, and the model's checks and precomputed tables.
+    # src/urdf_import.cpp: the checker
+    ('urdf_axis_tolerance', 'src/urdf_import.cpp',
+     'constexpr double kAxisNormTolerance = 0.01;',
+     'constexpr double kAxisNormTolerance = 0.1;'),
+    ('urdf_unlimited_bound', 'src/urdf_import.cpp',
+     'constexpr double kUnlimitedRevolute = 1e6;',
+     'constexpr double kUnlimitedRevolute = 1e17;'),
+    ('urdf_trailing_space', 'src/urdf_import.cpp',
+     'if (count == 1 && !text.empty() && std::isspace(static_cast<unsigned char>(text.back())))',
+     'if (false && count == 1 && !text.empty() && std::isspace(static_cast<unsigned char>(text.back())))'),
+    ('urdf_whole_token', 'src/urdf_import.cpp',
+     'const bool bad = number.fail() || !number.eof() || !std::isfinite(v);',
+     'const bool bad = number.fail() || !std::isfinite(v);'),
+    ('urdf_number_count', 'src/urdf_import.cpp',
+     'if (values.size() != count)',
+     'if (values.size() < count)'),
+    ('urdf_magnitude_sign', 'src/urdf_import.cpp',
+     'if (std::abs(v) > largest) {',
+     'if (v > largest) {'),
+    ('urdf_negative_mass', 'src/urdf_import.cpp',
+     'if (m < 0.0) fail(mass->Row()',
+     'if (m < -1.0) fail(mass->Row()'),
+    ('urdf_zero_axis', 'src/urdf_import.cpp',
+     'if (n < 1e-12) fail(axis->Row()',
+     'if (n < 0.0) fail(axis->Row()'),
+    ('urdf_limit_order', 'src/urdf_import.cpp',
+     'if (bounded && lower > upper) {',
+     'if (bounded && lower > upper + 1.0) {'),
+    ('urdf_no_range', 'src/urdf_import.cpp',
+     'if (bounded && lower == upper && j.mimic.empty() && !options_.default_limits)',
+     'if (false && bounded && lower == upper && j.mimic.empty() && !options_.default_limits)'),
+    ('urdf_zero_speed', 'src/urdf_import.cpp',
+     'if (velocity <= 0.0 && j.mimic.empty() && !options_.default_limits)',
+     'if (velocity < 0.0 && j.mimic.empty() && !options_.default_limits)'),
+    ('urdf_self_loop', 'src/urdf_import.cpp',
+     'if (j.parent == j.child) fail(',
+     'if (false) fail('),
+    ('urdf_xacro_skip', 'src/urdf_import.cpp',
+     'if (!options_.ignore_xacro_elements)',
+     'if (true)'),
+    ('urdf_xacro_expression', 'src/urdf_import.cpp',
+     'if (v.find("${") != std::string::npos || v.find("$(") != std::string::npos)\n',
+     'if (v.find("$(") != std::string::npos)\n'),
+    # src/urdf_import.cpp: soles, inertials, the tree
+    ('urdf_capsule_radius', 'src/urdf_import.cpp',
+     'const double depth = 0.5 * std::abs(X_RG.R(2, 2)) * k.length + k.radius;',
+     'const double depth = 0.5 * std::abs(X_RG.R(2, 2)) * k.length;'),
+    ('urdf_box_half', 'src/urdf_import.cpp',
+     'depth = 0.5 * (std::abs(row(0)) * size.x + std::abs(row(1)) * size.y + std::abs(row(2)) * size.z);',
+     'depth = 0.5 * size.z;'),
+    ('urdf_cylinder_side', 'src/urdf_import.cpp',
+     'cylinder.radius * std::sqrt(std::max(0.0, 1.0 - row(2) * row(2)));',
+     '0.0;'),
+    ('urdf_visual_always', 'src/urdf_import.cpp',
+     'if (link.collision_array.empty() && collision_capsules.empty()) {',
+     'if (true) {'),
+    ('urdf_capsule_kind', 'src/urdf_import.cpp',
+     "(kind[0] == 'c' ? collision_capsules_ : visual_capsules_)[name].push_back(k);",
+     "(kind[0] == 'v' ? collision_capsules_ : visual_capsules_)[name].push_back(k);"),
+    ('urdf_leg_primitives', 'src/urdf_import.cpp',
+     'const double lowest = std::min(X_RL.p.z(), lowest_primitive_z(',
+     'const double lowest = std::max(X_RL.p.z(), lowest_primitive_z('),
+    ('urdf_inertia_turn', 'src/urdf_import.cpp',
+     'in.inertia = X_BI.R * I * X_BI.R.transpose();',
+     'in.inertia = I;'),
+    ('urdf_parallel_axis', 'src/urdf_import.cpp',
+     'return Matrix3(in.inertia + in.mass * (d.squaredNorm() * Matrix3::Identity() - d * d.transpose()));',
+     'return Matrix3(in.inertia + in.mass * (d.squaredNorm() * Matrix3::Identity()));'),
+    ('urdf_mimic_zero', 'src/urdf_import.cpp',
+     'const Transform X_PC = X_PC0 * joint_motion(joint, joint.mimic ? joint.mimic->offset : 0.0);',
+     'const Transform X_PC = X_PC0 * joint_motion(joint, 0.0);'),
+    ('urdf_world_floating', 'src/urdf_import.cpp',
+     'neighbours_.at(other).size() == 1;',
+     'neighbours_.at(other).size() >= 1;'),
+    ('urdf_reversed_pose', 'src/urdf_import.cpp',
+     'X_BO = X_PC0.inverse();',
+     'X_BO = X_PC0;'),
+    ('urdf_default_range', 'src/urdf_import.cpp',
+     'const double default_range = prismatic ? 1.0 : M_PI;',
+     'const double default_range = prismatic ? 1.0 : 2.0;'),
+    ('urdf_effort_negative', 'src/urdf_import.cpp',
+     'std::max(joint.limits->effort, 0.0)',
+     'joint.limits->effort'),
+    ('urdf_world_root_mass', 'src/urdf_import.cpp',
+     'if ((!root.inertial || root.inertial->mass == 0.0) && root.child_joints.size() == 1 &&',
+     'if (root.child_joints.size() == 1 &&'),
+    # src/urdf_import.cpp: where the root stands
+    ('urdf_feet_root', 'src/urdf_import.cpp',
+     'if (has_legs && std::abs(tree.lowest_leg_z_) < 0.1 * tree.leg_length_) {',
+     'if (false && has_legs && std::abs(tree.lowest_leg_z_) < 0.1 * tree.leg_length_) {'),
+    ('urdf_hips_down', 'src/urdf_import.cpp',
+     'if (hips > 0.0 && hips - tree.lowest_leg_z_ >= 0.5 * tree.leg_length_) pivot = hips;',
+     'if (hips > 0.0) pivot = hips;'),
+    ('urdf_legs_down', 'src/urdf_import.cpp',
+     'if (depth < 0.1 * tree.leg_length_) {',
+     'if (depth < 0.001 * tree.leg_length_) {'),
+    ('urdf_pivot_far', 'src/urdf_import.cpp',
+     'if (depth > 2.0 * tree.leg_length_ && pivot_given) {',
+     'if (depth > 20.0 * tree.leg_length_ && pivot_given) {'),
+    ('urdf_height_legs', 'src/urdf_import.cpp',
+     'height = -tree.lowest_leg_z_;',
+     'height = -tree.lowest_leg_z_ + 0.01;'),
+    ('urdf_cut_below', 'src/urdf_import.cpp',
+     'if (cut_off && cut->second < -1e-3)',
+     'if (cut_off && cut->second < -1e-1)'),
+    ('urdf_stands_on', 'src/urdf_import.cpp',
+     'return z - lowest_link <= std::max(highest_link - z, 1e-3);',
+     'return true;'),
+    ('urdf_footprint', 'src/urdf_import.cpp',
+     'return link == "world" || link == "base_footprint";',
+     'return link == "world";'),
+    ('urdf_default_height', 'src/urdf_import.cpp',
+     'if (std::isnan(height)) height = 1.0;',
+     'if (std::isnan(height)) height = 0.5;'),
+    ('urdf_rpy_bound', 'src/urdf_import.cpp',
+     'if (!(rpy.array().abs() <= 2.0 * M_PI + 1e-6).all()) {',
+     'if (!(rpy.array().abs() <= 4.0 * M_PI).all()) {'),
+    ('urdf_leg_twice', 'src/urdf_import.cpp',
+     'static_cast<std::ptrdiff_t>(k), leg) !=',
+     'static_cast<std::ptrdiff_t>(k), leg) =='),
+    ('urdf_added_frame_parent', 'src/urdf_import.cpp',
+     'parent->second.X_BF * Transform{rotation_from_rpy(added.rpy.x(), added.rpy.y(), added.rpy.z()), added.xyz}};',
+     'Transform{rotation_from_rpy(added.rpy.x(), added.rpy.y(), added.rpy.z()), added.xyz}};'),
+    ('urdf_added_frame_whole', 'src/urdf_import.cpp',
+     'if (used != value.size() || !std::isfinite(v[k])) throw ConfigError(expected);',
+     'if (!std::isfinite(v[k])) throw ConfigError(expected);'),
+    ('urdf_virtual_names', 'src/urdf_import.cpp',
+     'if (spec.joint && !spec.joint->mimic && dofs.count(spec.joint->name))',
+     'if (false && spec.joint && !spec.joint->mimic && dofs.count(spec.joint->name))'),
+    ('urdf_range_order', 'src/urdf_import.cpp',
+     'range[0] < range[1])) {',
+     'range[0] <= range[1])) {'),
+    # src/model.cpp
+    ('model_rpy_roll', 'src/model.cpp',
+     'const double roll = std::atan2(s * R(0, 2) - c * R(1, 2), c * R(1, 1) - s * R(0, 1));',
+     'const double roll = std::atan2(R(2, 1), R(2, 2));'),
+    ('model_axis_code_sign', 'src/model.cpp',
+     'if (body.axis == -Vector3::Unit(k)) m.axis_code_[b] = -(k + 1);',
+     'if (body.axis == -Vector3::Unit(k)) m.axis_code_[b] = k + 1;'),
+    ('model_offset_rotation', 'src/model.cpp',
+     'm.offset_without_rotation_[b] = body.X_PJ.R == Matrix3::Identity();',
+     'm.offset_without_rotation_[b] = true;'),
+    ('model_axis_tolerance', 'src/model.cpp',
+     'constexpr double kAxisTolerance = 1e-5;',
+     'constexpr double kAxisTolerance = 1e-2;'),
+    ('model_continuous_range', 'src/model.cpp',
+     'if (!(dof.work_range > 0.0)) dof.work_range = 2.0 * M_PI;',
+     'if (!(dof.work_range > 0.0)) dof.work_range = M_PI;'),
+    ('model_driven', 'src/model.cpp',
+     'if (driven[d] == 0) throw ModelError(',
+     'if (driven[d] < 0) throw ModelError('),
+    ('model_orthonormal', 'src/model.cpp',
+     'if (!(body.X_PJ.R.transpose() * body.X_PJ.R).isIdentity(1e-6))',
+     'if (!(body.X_PJ.R.transpose() * body.X_PJ.R).isIdentity(1e-1))'),
+    ('model_chain_dofs', 'src/model.cpp',
+     'if (m.bodies_[a].dof >= 0) m.chain_bodies_.push_back(a);',
+     'if (m.bodies_[a].dof > 0) m.chain_bodies_.push_back(a);'),
+    ('model_heel_speed', 'src/model.cpp',
+     'const double heel_speed = height > 0.05 ? 0.5 * std::sqrt(height / 0.6) : 0.5;',
+     'const double heel_speed = 0.5;'),
+    ('model_crouch', 'src/model.cpp',
+     'const double crouch = height > 0.0 ? 0.2 * height : 0.2;',
+     'const double crouch = 0.2;'),
+    ('model_speed_positive', 'src/model.cpp',
+     'if (!std::isfinite(dof.max_speed) || dof.max_speed <= 0.0)',
+     'if (!std::isfinite(dof.max_speed) || dof.max_speed < 0.0)'),
+    ('model_frame_parent_body', 'src/model.cpp',
+     'if (p.body != expected)',
+     'if (false && p.body != expected)'),
+    # A fourth list (thirty-sixth session): the command-line tool's scenario runner, scenario
+    # reader, drawn legs and model notes (apps/), which the unit tests also cover.
+    # apps/runner.cpp: the scenario runner and its summary
+    ('run_axis_angle', 'apps/runner.cpp',
+     'return std::atan2(u.cross(v).norm(), u.dot(v));',
+     'return (u - v).norm();'),
+    ('run_distance_max', 'apps/runner.cpp',
+     'if (type == "joints" || max == 0.0 || std::isinf(max)) return max;',
+     'if (true) return max;'),
+    ('run_shift_share', 'apps/runner.cpp',
+     'const double needed = c.q()[dofs[k]] + offset_H[k] / share;',
+     'const double needed = c.q()[dofs[k]] + offset_H[k];'),
+    ('run_condition_weights', 'apps/runner.cpp',
+     "Jp.col(i) *= keep ? model.dof(i).work_range : 0.0;",
+     "Jp.col(i) *= keep ? 1.0 : 0.0;"),
+    ('run_release_virtual', 'apps/runner.cpp',
+     'if (s.fixed_base && model.dof(r.release.back()).role != DofRole::kJoint)',
+     'if (false && s.fixed_base && model.dof(r.release.back()).role != DofRole::kJoint)'),
+    ('run_given_walking', 'apps/runner.cpp',
+     '        if (given) continue;\n',
+     '        (void)given;\n'),
+    ('run_scaled_tolerance', 'apps/runner.cpp',
+     'if (!s.walking.tolerance_given) p.position_tolerance = scaled.position_tolerance;',
+     '(void)scaled.position_tolerance;'),
+    ('run_event_time', 'apps/runner.cpp',
+     's.events[next_event].time <= t_start + 1e-12',
+     's.events[next_event].time < t_start'),
+    ('run_relative_target', 'apps/runner.cpp',
+     'cmd.targets.segment(stack.target_offset(e), v.size()) = c.values().segment(stack.target_offset(e), v.size()) + v;',
+     'cmd.targets.segment(stack.target_offset(e), v.size()) = v;'),
+    ('run_walk_target_changed', 'apps/runner.cpp',
+     'if (walking && (!r.targets.empty() || !r.relative.empty())) walking->target_changed();',
+     'if (walking && !r.targets.empty()) walking->target_changed();'),
+    ('run_balance_off', 'apps/runner.cpp',
+     'if (!balance_on && balance) balance->disable(cmd);',
+     'if (false) balance->disable(cmd);'),
+    ('run_error_while_active', 'apps/runner.cpp',
+     '      if (run.active[k][i] > 0.0) {\n        max_error',
+     '      if (true) {\n        max_error'),
+    ('run_limit_distance', 'apps/runner.cpp',
+     'const double d = std::min(run.q[k][i] - model.dof(i).lower, model.dof(i).upper - run.q[k][i]);',
+     'const double d = run.q[k][i] - model.dof(i).lower;'),
+    ('run_error_scale', 'apps/runner.cpp',
+     'if (task.type == "axis" || task.type == "attitude") return 180.0 / M_PI;',
+     'if (task.type == "axis") return 180.0 / M_PI;'),
+    # apps/scenario.cpp
+    ('scn_filter_order', 'apps/scenario.cpp',
+     'order < 2 || order > 6)',
+     'order < 2 || order > 7)'),
+    ('scn_positive', 'apps/scenario.cpp',
+     'if (v <= 0.0) fail(node, field, "expected a number > 0");',
+     'if (v < 0.0) fail(node, field, "expected a number > 0");'),
+    ('scn_relative_urdf', 'apps/scenario.cpp',
+     "if (!s.urdf.empty() && s.urdf[0] != '/') s.urdf = base_dir + \"/\" + s.urdf;",
+     "(void)base_dir;"),
+    ('scn_cycles_round', 'apps/scenario.cpp',
+     'const double cycles = dt > 0.0 ? std::round(duration / dt) : 0.0;',
+     'const double cycles = dt > 0.0 ? std::floor(duration / dt) : 0.0;'),
+    # apps/leg_poser.cpp: the legs drawn standing on the feet
+    ('pose_blend', 'apps/leg_poser.cpp',
+     'const double blend = s * s * (3 - 2 * s);',
+     'const double blend = s;'),
+    ('pose_lift', 'apps/leg_poser.cpp',
+     'out.lift[side] = 0.2 * p.max_step_length * std::sin(std::numbers::pi * s);',
+     'out.lift[side] = 0.0;'),
+    ('pose_left', 'apps/leg_poser.cpp',
+     'left[leg] = X_WE.p.y() > 0;',
+     'left[leg] = X_WE.p.y() < 0;'),
+    # apps/model_notes.cpp
+    ('notes_legs_apart', 'apps/model_notes.cpp',
+     'if (mean.norm() < 0.1 * length / counted) {',
+     'if (false) {'),
+    ('notes_legs_down', 'apps/model_notes.cpp',
+     'if (!(horizontal > -mean.z())) return "";',
+     'if (!(horizontal > -2.0 * mean.z())) return "";'),
 ]
 
 def run(command, cwd, timeout=None):
