@@ -15,7 +15,7 @@ stopping at the first failure. Prints a line per case, KILLED (with the first fa
 or SURVIVED, and exits 1 if any case survived or a case no longer applies (its text not
 found exactly once: update the case with the code). About 8 s per case of src/ and 15-30 s
 per case of apps/ on a 2-core machine after a build of 3-4 minutes (about an hour for the
-201); not a CTest for that reason.
+215); not a CTest for that reason.
 
 The first 123 cases (src/, 24 files) were written in the thirty-fifth session. Their first
 runs found nine that no test caught, not even the longer CTests (random scenarios and the
@@ -28,10 +28,11 @@ of rows, an external velocity stopped at a limit still fed to the tasks as x_bal
 braking); each now has a test. One more case could not be told from the original by any run
 (the walking converge timer paused while the heel is held): that condition was dead and is
 gone. The thirty-sixth session added 55 cases of the URDF import and the model builder and
-23 of the tool's scenario runner, reader, drawn legs and model notes (apps/); 16 and 15 of
-them survived at first, among them the import's inertials (never compared with anything),
-default limits, a locked leg's mimic offsets, a test file whose comment named a rule it never
-reached, and most of the run summary's numbers; each now has a test. A loop check given ten
+37 of the tool's scenario runner, reader, drawn legs, task and model notes and report data
+(apps/); 16 and 23 of them survived at first, among them the import's inertials (never
+compared with anything), default limits, a locked leg's mimic offsets, a test file whose
+comment named a rule it never reached, most of the run summary's numbers and the report's
+targets and samples; each now has a test. A loop check given ten
 times the steps was dropped as equivalent (a loop is found either way).
 Standard library only.
 """
@@ -620,7 +621,8 @@ CASES = [
      'if (p.body != expected)',
      'if (false && p.body != expected)'),
     # A fourth list (thirty-sixth session): the command-line tool's scenario runner, scenario
-    # reader, drawn legs and model notes (apps/), which the unit tests also cover.
+    # reader, drawn legs, task and model notes and report data (apps/), which the unit tests
+    # also cover.
     # apps/runner.cpp: the scenario runner and its summary
     ('run_axis_angle', 'apps/runner.cpp',
      'return std::atan2(u.cross(v).norm(), u.dot(v));',
@@ -694,6 +696,51 @@ CASES = [
     ('notes_legs_down', 'apps/model_notes.cpp',
      'if (!(horizontal > -mean.z())) return "";',
      'if (!(horizontal > -2.0 * mean.z())) return "";'),
+    # apps/task_notes.cpp: elements no free dof moves
+    ('tnote_free_any', 'apps/task_notes.cpp',
+     'free_mover = free_mover || ever_free[i];',
+     'free_mover = ever_free[i];'),
+    ('tnote_considered', 'apps/task_notes.cpp',
+     '    if (!considered[e]) continue;\n    std::string movers;',
+     '    std::string movers;'),
+    ('tnote_six', 'apps/task_notes.cpp',
+     'if (++count <= 6) movers',
+     'if (++count <= 60) movers'),
+    ('tnote_vanishing', 'apps/task_notes.cpp',
+     'constexpr double kVanishing = 1e-10;',
+     'constexpr double kVanishing = 1e-1;'),
+    # apps/runner.cpp: which dofs count as free for those notes
+    ('run_balance_frees', 'apps/runner.cpp',
+     'if (balance && d >= 0) ever_free[d] = true;',
+     'if (false && balance && d >= 0) ever_free[d] = true;'),
+    ('run_walking_frees', 'apps/runner.cpp',
+     'if (walking && d >= 0) ever_free[d] = true;',
+     'if (false && walking && d >= 0) ever_free[d] = true;'),
+    ('run_event_considered', 'apps/runner.cpp',
+     'considered[e] = considered[e] || (row >= stack.row_offset(e)',
+     'considered[e] = considered[e] && (row >= stack.row_offset(e)'),
+    ('run_default_feet_note', 'apps/runner.cpp',
+     'if (supported && !s.urdf.empty() && s.feet.line == 0) {',
+     'if (false && supported && !s.urdf.empty() && s.feet.line == 0) {'),
+    # apps/report_writer.cpp: what the report draws
+    ('rep_stride', 'apps/report_writer.cpp',
+     'const int stride = std::max(1, (K + kMaxSamples - 1) / kMaxSamples);',
+     'const int stride = std::max(1, K / kMaxSamples);'),
+    ('rep_last_sample', 'apps/report_writer.cpp',
+     'if (samples.back() != K - 1) samples.push_back(K - 1);',
+     '(void)K;'),
+    ('rep_target_reference', 'apps/report_writer.cpp',
+     'target_values[e].push_back(xyz(t.type == "position" ? Vector3(X_WR * v) : Vector3(X_WR.R * v.normalized())));',
+     'target_values[e].push_back(xyz(t.type == "position" ? Vector3(v) : Vector3(X_WR.R * v.normalized())));'),
+    ('rep_inactive_target', 'apps/report_writer.cpp',
+     'if (run.active[k][e] == 0.0 || (t.type != "position" && t.type != "axis")) {',
+     'if (t.type != "position" && t.type != "axis") {'),
+    ('rep_hidden_heel_yaw', 'apps/report_writer.cpp',
+     'hidden[b] = role != DofRole::kJoint && role != DofRole::kHeelYaw && b != chain.upper_body;',
+     'hidden[b] = role != DofRole::kJoint && b != chain.upper_body;'),
+    ('rep_micrometres', 'apps/report_writer.cpp',
+     'double micrometres(double x) { return std::round(x * 1e6) / 1e6; }',
+     'double micrometres(double x) { return std::round(x * 1e3) / 1e3; }'),
 ]
 
 def run(command, cwd, timeout=None):

@@ -1940,6 +1940,55 @@ TEST(Walking, ARelativeTargetAfterGivingUpStartsANewWalk) {
   EXPECT_LT(run->error.back()[run->element("l_hand")], 1e-3);
 }
 
+// The report draws at most 1500 samples, the last cycle always among them; an element's target
+// only while the element is active (null, a gap, before and after); a position target given
+// relative to a frame where that frame puts it in the world at the sample, an axis target
+// turned as that frame is.
+TEST(Scenarios, TheReportDrawsTargetsInTheWorldWhileActive) {
+  const auto run = run_scenario(parse_scenario(
+      "name: r\nrobot: {builtin: paper}\ndt: 0.001\nduration: 4\nfrozen: [heel_x, heel_y, heel_yaw]\n"
+      "tasks: [{name: rel, type: position, frame: l_hand_ref, reference: upper_body},\n"
+      "        {name: grasp, type: axis, frame: r_hand_ref, reference: upper_body}]\n"
+      "timeline:\n  - {t: 1, activate: [rel, grasp], relative_targets: {rel: [0.1, 0, 0.1]}, targets: {grasp: [0, 0.6, "
+      "0.8]}}\n  - {t: 3, deactivate: [rel, grasp]}\n",
+      "r.yaml", "."));
+  const Model& m = *run->model;
+  const nlohmann::json report = report_data(*run);
+  const nlohmann::json& time = report["time"];
+  ASSERT_EQ(run->num_cycles(), 4001);
+  EXPECT_LE(time.size(), 1500u);
+  EXPECT_EQ(time.back().get<double>(), run->time.back());
+  const nlohmann::json& targets = report["targets"];
+  ASSERT_EQ(targets.size(), 2u);
+  Data d(m);
+  const int reference = m.frame_index("upper_body");
+  int drawn = 0, gaps = 0;
+  for (size_t j = 0; j < time.size(); ++j) {
+    const double t = time[j].get<double>();
+    const auto k = std::lower_bound(run->time.begin(), run->time.end(), t - 1e-12) - run->time.begin();
+    const bool active = run->active[k][run->element("rel")] > 0.0;
+    for (const int e : {0, 1}) {
+      const nlohmann::json& value = targets[e]["values"][j];
+      if (!active) {
+        EXPECT_TRUE(value.is_null()) << "t = " << t;
+        gaps += e;
+        continue;
+      }
+      forward_kinematics(m, d, run->q[k]);
+      const Transform X_WR = frame_pose(m, d, reference);
+      const Vector3 v = run->commanded_of(e == 0 ? "rel" : "grasp", static_cast<int>(k)).head<3>();
+      const Vector3 expected = e == 0 ? Vector3(X_WR * v) : Vector3(X_WR.R * v.normalized());
+      ASSERT_FALSE(value.is_null()) << "t = " << t;
+      EXPECT_LT((Vector3(value[0].get<double>(), value[1].get<double>(), value[2].get<double>()) - expected).norm(),
+                1e-12)
+          << "t = " << t;
+      drawn += e;
+    }
+  }
+  EXPECT_GT(drawn, 100);
+  EXPECT_GT(gaps, 100);
+}
+
 struct BadScenario {
   std::string yaml;
   const char* message;
@@ -2281,7 +2330,14 @@ TEST(Scenarios, AnElementNoFreeDofMovesIsNoted) {
       << frozen_arm;
   EXPECT_EQ(frozen_arm[1].get<std::string>().rfind("task 'lift': only frozen dofs move it (", 0), 0u) << frozen_arm;
   EXPECT_EQ(frozen_arm[2].get<std::string>().rfind("task 'left': only frozen dofs move it (", 0), 0u) << frozen_arm;
-  EXPECT_NE(frozen_arm[2].get<std::string>().find(" more; frozen by"), std::string::npos) << frozen_arm;  // six named
+  // Six named, then how many more: every virtual dof, the torso lift and six arm joints (the
+  // seventh turns the tool about its own axis, so its position column is zero; a mover is any
+  // entry above rounding, not only a large one).
+  EXPECT_EQ(frozen_arm[2].get<std::string>().rfind("task 'left': only frozen dofs move it (heel_x, heel_y, heel_yaw, "
+                                                   "upper_body_x, upper_body_y, upper_body_z and 10 more; frozen by",
+                                                   0),
+            0u)
+      << frozen_arm;
   // One arm joint released later: the hand can move.
   const nlohmann::json released = notes("frozen: " + arm + "\ntimeline: [{t: 0.005, release: [left_joint3]}]\n");
   ASSERT_EQ(released.size(), 2u) << released;  // view, and lift: the torso_lift stays frozen
@@ -2295,6 +2351,34 @@ TEST(Scenarios, AnElementNoFreeDofMovesIsNoted) {
       "name: f\nrobot: {urdf: '" + wbm_test::source_path("models/dual_arm/dual_arm.urdf") + "'}\nduration: 0.01\n" + tasks,
       "f.yaml", "."));
   EXPECT_EQ(summarize(*free_base)["task_notes"], nlohmann::json::array());
+  // A dof moves an element where any entry of its column is above rounding: the left arm's last
+  // joint turns a tool axis 3 degrees off its own (entries about 0.05), not one along it.
+  const auto wrist_notes = [&](const std::string& axis) {
+    const auto wrist = run_scenario(parse_scenario(
+        "name: w\n" + robot + "duration: 0.01\n" +
+            "frozen: [torso_lift, left_joint1, left_joint2, left_joint3, left_joint4, left_joint5, left_joint6]\n" +
+            "tasks: [{name: tilt, type: axis, frame: left_tool, axis: [" + axis + "], active: true}]\n",
+        "w.yaml", "."));
+    return summarize(*wrist)["task_notes"].size();
+  };
+  EXPECT_EQ(wrist_notes("0.05, 0, 0.99875"), 0u);
+  EXPECT_EQ(wrist_notes("0, 0, 1"), 1u);
+  // The dofs balance (the upper body's shift) and walking (the heel) drive count as free: with
+  // every dof frozen, the centre of mass is noted unless balance is on, a hand unless walking is.
+  const Model paper = make_paper_model();
+  std::string all_dofs;
+  for (int i = 0; i < paper.num_dofs(); ++i) all_dofs += (i ? ", " : "") + paper.dof(i).name;
+  const auto paper_notes = [&](const std::string& rest) {
+    const auto frozen_run = run_scenario(parse_scenario(
+        "name: p\nrobot: {builtin: paper}\nduration: 0.01\nfrozen: [" + all_dofs + "]\n" + rest, "p.yaml", "."));
+    return summarize(*frozen_run)["task_notes"].size();
+  };
+  const std::string com = "tasks: [{name: c, type: com, active: true}]\n";
+  const std::string hand = "tasks: [{name: h, type: position, frame: l_hand_ref, active: true}]\n";
+  EXPECT_EQ(paper_notes(com), 1u);
+  EXPECT_EQ(paper_notes("balance: {enabled: true}\n" + com), 0u);
+  EXPECT_EQ(paper_notes(hand), 1u);
+  EXPECT_EQ(paper_notes("walking: {enabled: true}\n" + hand), 0u);
   // The report's table has the note.
   const auto run = run_scenario(parse_scenario("name: r\n" + robot + "duration: 0.01\n" + tasks, "r.yaml", "."));
   const nlohmann::json report = report_data(*run);  // kept: a range-for over a temporary's member dangles
