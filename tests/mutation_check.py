@@ -15,7 +15,7 @@ stopping at the first failure. Prints a line per case, KILLED (with the first fa
 or SURVIVED, and exits 1 if any case survived or a case no longer applies (its text not
 found exactly once: update the case with the code). About 8 s per case of src/ and 15-30 s
 per case of apps/ on a 2-core machine after a build of 3-4 minutes (about an hour for the
-215); not a CTest for that reason.
+222); not a CTest for that reason.
 
 The first 123 cases (src/, 24 files) were written in the thirty-fifth session. Their first
 runs found nine that no test caught, not even the longer CTests (random scenarios and the
@@ -28,11 +28,12 @@ of rows, an external velocity stopped at a limit still fed to the tasks as x_bal
 braking); each now has a test. One more case could not be told from the original by any run
 (the walking converge timer paused while the heel is held): that condition was dead and is
 gone. The thirty-sixth session added 55 cases of the URDF import and the model builder and
-37 of the tool's scenario runner, reader, drawn legs, task and model notes and report data
-(apps/); 16 and 23 of them survived at first, among them the import's inertials (never
-compared with anything), default limits, a locked leg's mimic offsets, a test file whose
-comment named a rule it never reached, most of the run summary's numbers and the report's
-targets and samples; each now has a test. A loop check given ten
+44 of the command-line tool's code (apps/: scenario runner, reader, drawn legs, task and model
+notes, report data, the CLI); 16 and 27 of them survived at first, among them the import's
+inertials (never compared with anything), default limits, a locked leg's mimic offsets, a
+test file whose comment named a rule it never reached, most of the run summary's numbers,
+the report's targets and samples, and the output directory's write check (root writes
+anywhere: its test now runs the tool without that capability); each now has a test. A loop check given ten
 times the steps was dropped as equivalent (a loop is found either way).
 Standard library only.
 """
@@ -621,8 +622,8 @@ CASES = [
      'if (p.body != expected)',
      'if (false && p.body != expected)'),
     # A fourth list (thirty-sixth session): the command-line tool's scenario runner, scenario
-    # reader, drawn legs, task and model notes and report data (apps/), which the unit tests
-    # also cover.
+    # reader, drawn legs, task and model notes, report data and the CLI itself (apps/), which
+    # the unit tests also cover.
     # apps/runner.cpp: the scenario runner and its summary
     ('run_axis_angle', 'apps/runner.cpp',
      'return std::atan2(u.cross(v).norm(), u.dot(v));',
@@ -741,6 +742,28 @@ CASES = [
     ('rep_micrometres', 'apps/report_writer.cpp',
      'double micrometres(double x) { return std::round(x * 1e6) / 1e6; }',
      'double micrometres(double x) { return std::round(x * 1e3) / 1e3; }'),
+    # apps/wbm_cli.cpp: the command-line tool
+    ('cli_q_whole', 'apps/wbm_cli.cpp',
+     'if (trimmed.empty() || end != trimmed.c_str() + trimmed.size())',
+     'if (trimmed.empty())'),
+    ('cli_q_count', 'apps/wbm_cli.cpp',
+     'if (static_cast<int>(values.size()) != model.num_dofs())',
+     'if (static_cast<int>(values.size()) < model.num_dofs())'),
+    ('cli_same_names', 'apps/wbm_cli.cpp',
+     'if (files.size() > 1 && !by_name.emplace(s.name, &s).second)',
+     'if (false && files.size() > 1 && !by_name.emplace(s.name, &s).second)'),
+    ('cli_usage_status', 'apps/wbm_cli.cpp',
+     '    std::cerr << "wbm: error: " << e.what() << "\\nRun with --help for more information.\\n";\n    return 2;',
+     '    std::cerr << "wbm: error: " << e.what() << "\\nRun with --help for more information.\\n";\n    return 1;'),
+    ('cli_writable', 'apps/wbm_cli.cpp',
+     'if (access(path.c_str(), W_OK | X_OK) != 0)',
+     'if (false && access(path.c_str(), W_OK | X_OK) != 0)'),
+    ('cli_root_below', 'apps/wbm_cli.cpp',
+     '(root_height < 0.0 ? " m below" : " m above")',
+     '(root_height <= 0.0 ? " m below" : " m above")'),
+    ('cli_pivot_line', 'apps/wbm_cli.cpp',
+     '!root.empty() && pivot > 0.0)',
+     '!root.empty() && pivot > 1.0)'),
 ]
 
 def run(command, cwd, timeout=None):

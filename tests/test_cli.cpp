@@ -1,5 +1,6 @@
 // The wbm command-line tool: runs it through the shell and parses its JSON output.
 #include <sys/wait.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cstdio>
@@ -457,6 +458,7 @@ TEST(Cli, UnknownFrameFails) {
 
 TEST(Cli, WrongConfigurationSizeFails) {
   expect_cli_error("model fk --q 1,2,3 --json", "--q has 3 values; the model has 21 dofs");
+  expect_cli_error("model fk --q 0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0 --json", "--q has 22 values; the model has 21 dofs");
 }
 
 // Several scenario files: a name the model lacks in the second file stops the run before
@@ -588,6 +590,51 @@ TEST(Cli, RunWithAnOutputNameTooLongFails) {
   EXPECT_NE(r.err.find("' is longer than a file name may be (255 bytes; --out)"), std::string::npos) << r.err;
   EXPECT_EQ(r.out.find("scenario x"), std::string::npos) << r.out;
   EXPECT_NE(access((base + "_dir").c_str(), F_OK), 0) << base << "_dir was created";
+  std::remove(scenario.c_str());
+}
+
+// Where a root link at the feet stands and where its upper body pivots: level with the soles
+// (0 m above the ground, 0.55 m to the hips), or given 1 cm below them.
+TEST(Cli, ModelInfoSaysWhereARootAtTheFeetStands) {
+  const std::string info = "model info '" + wbm_test::source_path("tests/data/root_at_feet.urdf") + "' --legs thigh_l,thigh_r";
+  const CliRun level = wbm_cli(info);
+  EXPECT_EQ(level.status, 0) << level.err;
+  EXPECT_NE(level.out.find("root link 'base', its origin 0.000 m above the ground standing straight; the upper body "
+                           "pivots 0.550 m above it"),
+            std::string::npos)
+      << level.out;
+  const CliRun below = wbm_cli(info + " --root-height -0.01 --upper-body-pivot 0.55");
+  EXPECT_EQ(below.status, 0) << below.err;
+  EXPECT_NE(below.out.find("its origin 0.010 m below the ground standing straight; the upper body pivots 0.550 m above "
+                           "it (upper_body_pivot: chosen at the hips where the root link's origin lies at the feet, or "
+                           "given; upper_body_z's upper limit 0.540 m"),
+            std::string::npos)
+      << below.out;
+}
+
+// An --out inside a directory the user cannot write into: refused before the run, with the
+// directory named. Root writes anywhere, so as root the tool runs without the capabilities
+// that let it (setpriv, util-linux: no CAP_DAC_OVERRIDE), as any other user would.
+TEST(Cli, RunIntoADirectoryItCannotWriteFails) {
+  const std::string base = testing::TempDir() + "wbm_cli_read_only_" + std::to_string(getpid());
+  const std::string scenario = base + ".yaml", locked = base + "_dir";
+  std::ofstream(scenario) << "name: x\nduration: 0.1\ntasks: [{name: a, type: position, frame: l_hand_ref}]\n";
+  ASSERT_EQ(mkdir(locked.c_str(), 0555), 0) << locked;
+  ASSERT_EQ(chmod(locked.c_str(), 0555), 0) << locked;  // whatever the umask
+  std::string prefix;
+  if (geteuid() == 0) {
+    ASSERT_EQ(std::system("command -v setpriv > /dev/null"), 0) << "setpriv (util-linux) is needed to run as root";
+    prefix = "setpriv --inh-caps=-dac_override,-dac_read_search --bounding-set=-dac_override,-dac_read_search ";
+  }
+  const CliRun r = wbm_test::run_command(prefix + "'" + WBM_CLI_PATH + "' run '" + scenario + "' --out '" + locked +
+                                             "/out' --no-report",
+                                         "wbm_cli_test");
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_NE(r.err.find("wbm: error: " + locked + "/out: cannot write into " + locked + " (--out)"), std::string::npos)
+      << r.err;
+  EXPECT_EQ(r.out.find("scenario x"), std::string::npos) << r.out;
+  EXPECT_NE(access((locked + "/out").c_str(), F_OK), 0) << "created";
+  std::filesystem::remove_all(locked);
   std::remove(scenario.c_str());
 }
 
