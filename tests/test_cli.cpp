@@ -623,8 +623,13 @@ TEST(Cli, RunIntoADirectoryItCannotWriteFails) {
   ASSERT_EQ(chmod(locked.c_str(), 0555), 0) << locked;  // whatever the umask
   std::string prefix;
   if (geteuid() == 0) {
-    ASSERT_EQ(std::system("command -v setpriv > /dev/null"), 0) << "setpriv (util-linux) is needed to run as root";
     prefix = "setpriv --inh-caps=-dac_override,-dac_read_search --bounding-set=-dac_override,-dac_read_search ";
+    // A container without CAP_SETPCAP cannot drop them: then nothing here can be refused.
+    if (std::system((prefix + "true > /dev/null 2>&1").c_str()) != 0) {
+      std::filesystem::remove_all(locked);
+      std::remove(scenario.c_str());
+      GTEST_SKIP() << "running as root, and setpriv (util-linux) cannot drop CAP_DAC_OVERRIDE here";
+    }
   }
   const CliRun r = wbm_test::run_command(prefix + "'" + WBM_CLI_PATH + "' run '" + scenario + "' --out '" + locked +
                                              "/out' --no-report",
