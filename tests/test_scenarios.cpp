@@ -466,6 +466,14 @@ TEST(Walking, ObjectAheadWalksStopsAndGrasps) {
   const Vector2 floating(run->q.back()[m.virtual_dofs().heel_x], run->q.back()[m.virtual_dofs().heel_y]);
   EXPECT_LT((floating - final_walking(*run).head<2>()).norm(), 0.03);
   EXPECT_GT(floating.norm(), 0.5);
+  // The walk ended with each foot at its place beside the floating heel, within feet_tolerance.
+  for (const bool left : {true, false}) {
+    FootPose last = standing_foot(left, Vector2::Zero(), 0.0, run->feet.spacing);
+    for (const Footstep& step : run->footsteps)
+      if (step.left == left) last = step.pose;
+    const FootPose place = standing_foot(left, floating, run->q.back()[m.virtual_dofs().heel_yaw], run->feet.spacing);
+    EXPECT_LT((last.position - place.position).norm(), run->walking_parameters.feet_tolerance) << left;
+  }
   // Where the heel dofs are released and frozen again (b_C), q_dot changes by at most
   // k vmax dt per cycle (80 rad/s^2 here; 754 before that limit covered such switches).
   const auto [acceleration, dof] = largest_acceleration_after(*run, 0.0);
