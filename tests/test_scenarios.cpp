@@ -466,6 +466,17 @@ TEST(Walking, ObjectAheadWalksStopsAndGrasps) {
   const Vector2 floating(run->q.back()[m.virtual_dofs().heel_x], run->q.back()[m.virtual_dofs().heel_y]);
   EXPECT_LT((floating - final_walking(*run).head<2>()).norm(), 0.03);
   EXPECT_GT(floating.norm(), 0.5);
+  // The walk ended after the heel dofs had been slower than converged_speed for converge_time
+  // (their rates from the recorded configurations; the cycle the walk ended in excluded).
+  const WalkingParameters& wp = run->walking_parameters;
+  for (int k = 1; k < run->num_cycles(); ++k) {
+    if (!(run->walking[k - 1][3] > 0 && run->walking[k][3] == 0)) continue;
+    const double dt = run->time[1] - run->time[0];
+    for (int j = k - 1 - static_cast<int>(wp.converge_time / dt) + 1; j < k; ++j)
+      for (const int d : {m.virtual_dofs().heel_x, m.virtual_dofs().heel_y, m.virtual_dofs().heel_yaw})
+        ASSERT_LT(std::abs(run->q[j][d] - run->q[j - 1][d]) / dt, wp.converged_speed + 1e-9)
+            << "walk ending at t = " << run->time[k] << ": heel dof " << d << " at t = " << run->time[j];
+  }
   // The walk ended with each foot at its place beside the floating heel, within feet_tolerance.
   for (const bool left : {true, false}) {
     FootPose last = standing_foot(left, Vector2::Zero(), 0.0, run->feet.spacing);
