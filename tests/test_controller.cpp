@@ -197,6 +197,108 @@ TEST(Walking, AWalkThatOnlyTurnsTurnsTheFeet) {
     EXPECT_LT(std::abs(foot.yaw - c.q()[model.virtual_dofs().heel_yaw]), 2.0 * parameters.feet_tolerance) << foot.yaw;
 }
 
+// A walk whose heel moves by twice the feet's tolerance (0.04 m forward, feet_tolerance 0.02):
+// the feet step there, and end within the tolerance of their places beside the heel. Feet
+// counted at their places from three times the tolerance never stepped (0 footsteps, 4 cm
+// behind). A joint row on heel_x asks for the move; with the heel frozen the error stalls.
+TEST(Walking, AWalkOfTwiceTheFeetToleranceStepsTheFeetThere) {
+  const Model model = make_paper_model();
+  Controller c(model);
+  c.add_task(std::make_unique<JointTask>(model, "forward", std::vector<std::string>{"heel_x"}), {3.0, 0.4, 2});
+  c.reset(model.home());
+  Command cmd = c.make_command();
+  cmd.task_active.setConstant(true);
+  const FootGeometry feet;
+  const WalkingParameters parameters = scaled_walking_parameters(model, feet);
+  ASSERT_NEAR(parameters.feet_tolerance, 0.02, 1e-12);
+  cmd.targets[0] = 2.0 * parameters.feet_tolerance;
+  WalkingModule walking(model, feet, parameters);
+  const FootPose left0 = walking.left_foot(), right0 = walking.right_foot();
+  ControllerStatus last;
+  int walks = 0;
+  const double dt = 0.002;
+  for (int k = 0; k < 3000; ++k) {
+    walks += (walking.update(c, last, k * dt, dt, cmd) & kWalkTriggered) != 0;
+    last = c.update(cmd, dt);
+    ASSERT_TRUE(last.ok()) << k;
+  }
+  ASSERT_EQ(walks, 1);
+  ASSERT_FALSE(walking.walking());
+  const double heel_x = c.q()[model.virtual_dofs().heel_x];
+  EXPECT_NEAR(heel_x, 0.04, parameters.position_tolerance);
+  EXPECT_GE(walking.num_footsteps(), 2) << "both feet stepped";
+  for (const auto& [foot, start] : {std::pair{walking.left_foot(), left0}, std::pair{walking.right_foot(), right0}})
+    EXPECT_LT((foot.position - start.position - Vector2(heel_x, 0.0)).norm(), parameters.feet_tolerance)
+        << foot.position.transpose();
+}
+
+// The walking trigger by a joint limit (WalkingParameters::trigger_on_joint_limit) reads
+// both limit flags of the last cycle's status: a dof clamped at its limit (integrate) and
+// a dof at its limit frozen for the cycle (Controller); either starts a walk while a row's
+// error is above its tolerance, neither does without a limit flag or with the trigger off.
+// The stall and cost triggers are off, so only the flags decide.
+TEST(Walking, EitherJointLimitFlagTriggersAWalk) {
+  const Model model = make_paper_model();
+  Controller c(model);
+  c.add_task(std::make_unique<PositionTask>(model, "l_hand", "l_hand_ref"), {3.0, 0.4, 2});
+  c.reset(model.home());
+  const FootGeometry feet;
+  WalkingParameters parameters = scaled_walking_parameters(model, feet);
+  parameters.stall_time = 0.0;
+  parameters.cost_threshold = 0.0;
+  const double dt = 0.002;
+  for (const bool trigger_on : {true, false})
+    for (const std::uint32_t limit_flags : {0u, std::uint32_t{kJointLimitClamped}, std::uint32_t{kDofAtLimitFrozen}}) {
+      parameters.trigger_on_joint_limit = trigger_on;
+      WalkingModule walking(model, feet, parameters);
+      Command cmd = c.make_command();
+      cmd.targets[0] += 0.1;  // 0.1 m ahead: 20 tolerances
+      ControllerStatus last;
+      last.flags = limit_flags;
+      bool triggered = false;
+      for (int k = 0; k < 100 && !triggered; ++k)  // 0.2 s: four trigger times
+        triggered = (walking.update(c, last, k * dt, dt, cmd) & kWalkTriggered) != 0;
+      EXPECT_EQ(triggered, trigger_on && limit_flags != 0) << "trigger_on_joint_limit " << trigger_on << ", flags "
+                                                            << limit_flags;
+    }
+}
+
+// Walking's error counts the rows the stack had on in the last cycle (the errors it reads
+// are that cycle's), and the commanded distance of the rows the command switches on. A row
+// off keeps its filtered target moving to its commanded target (the element's other rows
+// are on), so its stack error is stale: here 0.22 m, towards a target 0.3 m up that the
+// command moves to the hand in the cycle it switches the row on. Counted, that stale error
+// started a walk towards a target already reached.
+TEST(Walking, AStaleErrorOfARowSwitchedOnDoesNotTriggerAWalk) {
+  const Model model = make_paper_model();
+  Controller c(model);
+  c.add_task(std::make_unique<PositionTask>(model, "l_hand", "l_hand_ref"), {3.0, 0.4, 2});
+  c.reset(model.home());
+  Command cmd = c.make_command();
+  cmd.task_active << true, true, false;  // z off
+  cmd.targets[2] += 0.3;
+  const FootGeometry feet;
+  WalkingParameters parameters = scaled_walking_parameters(model, feet);
+  parameters.stall_time = 0.0;
+  parameters.cost_threshold = 0.0;
+  parameters.trigger_time = 0.0;  // one cycle with an error above the tolerance starts a walk
+  WalkingModule walking(model, feet, parameters);
+  ControllerStatus clamped;
+  clamped.flags = kJointLimitClamped;  // the limit trigger holds: the error decides
+  const double dt = 0.002;
+  int walks = 0;
+  for (int k = 0; k < 1000; ++k) {
+    if (k == 500) {  // z's filtered target is above the hand, which moved a little towards it
+      ASSERT_GT(std::abs(c.tasks().errors()[2]), 0.2);
+      cmd.task_active[2] = true;
+      cmd.targets[2] = c.values()[2];
+    }
+    walks += (walking.update(c, clamped, k * dt, dt, cmd) & kWalkTriggered) != 0;
+    ASSERT_TRUE(c.update(cmd, dt).ok()) << k;
+  }
+  EXPECT_EQ(walks, 0);
+}
+
 /// A command that keeps the heel standing (its dofs frozen), and the base if it is fixed.
 Command standing_command(const wbm_test::ShippedModel& entry, const Model& model, const Controller& c) {
   Command cmd = c.make_command();
