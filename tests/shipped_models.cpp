@@ -244,6 +244,10 @@ std::vector<ShippedModel> import_variants() {
   g1.options.root_rpy = wbm::Vector3(0.3, -0.2, 2.5);
   variants.push_back(g1);
   g1 = shipped_model("g1_29dof");
+  g1.id = "g1_29dof_root_tilted";  // root_rpy of a few hundredths of a radian: a mounting correction
+  g1.options.root_rpy = wbm::Vector3(0.02, -0.01, 0.03);
+  variants.push_back(g1);
+  g1 = shipped_model("g1_29dof");
   g1.id = "g1_29dof_pivot";  // upper_body_pivot: the root link hung below the virtual dofs' end
   g1.options.upper_body_pivot = 0.25;
   variants.push_back(g1);

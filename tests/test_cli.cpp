@@ -52,6 +52,11 @@ TEST(Cli, ModelInfoText) {
   EXPECT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.out.find("model paper_asimo_like: 21 dofs"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("l_hand_ref"), std::string::npos);
+  // A welded link names its body and the link it hangs from.
+  const CliRun g1 = wbm_cli("model info '" + wbm_test::shipped_model("g1_29dof").path + "'");
+  EXPECT_NE(g1.out.find("\n  left_rubber_hand (left_wrist_yaw_link, from left_wrist_yaw_link)\n"), std::string::npos)
+      << g1.out;
+  EXPECT_NE(g1.out.find("\n  d435_link (torso_link, from torso_link)\n"), std::string::npos) << g1.out;
 }
 
 // A placeholder <limit velocity> (ergoCub's URDFs declare 1e9 rad/s on every joint) would
@@ -506,6 +511,8 @@ TEST(Cli, NonFiniteConfigurationFails) {
   expect_cli_error("model fk --q 1,,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0 --json", "--q: '' is not a number");
   expect_cli_error("model info '" + wbm_test::shipped_model("g1_29dof").path + "' --root-height nan",
                    "--root-height: expected a finite height >= 0 m, got nan");
+  expect_cli_error("model info '" + wbm_test::shipped_model("g1_29dof").path + "' --upper-body-pivot nan",
+                   "--upper-body-pivot: expected a finite height >= 0 m, got nan");
 }
 
 // --upper-body-x-range / -y-range set the upper body's shift ranges (for balance over long

@@ -19,6 +19,7 @@
 #include <gtest/gtest.h>
 
 #include "alloc_counter.hpp"
+#include "closest_names.hpp"
 #include "fast_trig.hpp"
 #include "zero_block.hpp"
 #include "shipped_models.hpp"
@@ -1555,34 +1556,79 @@ TEST(Export, UpperBodyRangesAreImportOptionsAndTheExportNamesThem) {
   }
 }
 
+/// The import options that the export's comment names as command-line flags ("(--root R
+/// --root-height H ...). -->"), read as a user of the file would type them.
+wbm::UrdfImportOptions options_named_by_export(const std::string& xml) {
+  wbm::UrdfImportOptions options;
+  const std::size_t open = xml.find("(--root "), close = xml.find("). -->", open);
+  if (open == std::string::npos || close == std::string::npos) {
+    ADD_FAILURE() << "no import flags in the export's comment: " << xml.substr(0, 300);
+    return options;
+  }
+  const auto numbers = [](const std::string& text) {
+    std::vector<double> v;
+    std::istringstream in(text);
+    for (std::string item; std::getline(in, item, ',');) v.push_back(std::stod(item));
+    return v;
+  };
+  std::istringstream flags(xml.substr(open + 1, close - open - 1));
+  for (std::string flag, value; flags >> flag >> value;) {
+    if (flag == "--root") {
+      options.root = value;
+      continue;
+    }
+    const std::vector<double> v = numbers(value);
+    if (flag == "--root-height" && v.size() == 1) options.root_height = v[0];
+    else if (flag == "--upper-body-pivot" && v.size() == 1) options.upper_body_pivot = v[0];
+    else if (flag == "--upper-body-x-range" && v.size() == 2) options.upper_body_x_range = {v[0], v[1]};
+    else if (flag == "--upper-body-y-range" && v.size() == 2) options.upper_body_y_range = {v[0], v[1]};
+    else if (flag == "--root-rpy" && v.size() == 3) options.root_rpy = Vector3(v[0], v[1], v[2]);
+    else ADD_FAILURE() << "unexpected flag " << flag << " " << value;
+  }
+  return options;
+}
+
 class ExportRoundTrip : public testing::TestWithParam<ShippedModel> {};
 
 TEST_P(ExportRoundTrip, SameFramePosesAfterExportAndImport) {
-  // Every URDF model survives export + import with the same frame poses.
+  // Every URDF model survives export + import with the same frame poses, the file imported
+  // with the flags its comment names.
   const ShippedModel& entry = GetParam();
   const Model original = entry.load();
-  wbm::UrdfImportOptions options;
-  options.root = original.body(original.virtual_dofs().upper_body).name;
-  // The root link origin's height, and the pivot above it where the origin lies at the feet:
-  // the file's comment names both.
+  const std::string xml = wbm::export_urdf(original);
+  const wbm::UrdfImportOptions options = options_named_by_export(xml);
+  EXPECT_EQ(options.root, original.body(original.virtual_dofs().upper_body).name);
+  // The root link origin's height, and the pivot above it where the origin lies at the feet.
   const double pivot = wbm::upper_body_pivot_above_root(original);
-  options.root_height = original.dof(original.virtual_dofs().ub_z).upper - pivot;
-  if (pivot > 0.0) {
-    options.upper_body_pivot = pivot;
-    EXPECT_NE(wbm::export_urdf(original).find(", upper_body_pivot "), std::string::npos);
-  }
-  // A root turned by root_rpy: the file's comment names it, and the import needs it again.
+  EXPECT_EQ(options.root_height, original.dof(original.virtual_dofs().ub_z).upper - pivot);
+  if (pivot > 0.0)
+    EXPECT_EQ(options.upper_body_pivot, pivot);
+  else
+    EXPECT_TRUE(std::isnan(options.upper_body_pivot)) << options.upper_body_pivot;
+  // A root turned by root_rpy, by however little: the import needs it again.
   const wbm::Matrix3& R_UR = original.body(original.virtual_dofs().upper_body).X_PJ.R;
-  if (!R_UR.isIdentity(0.0)) {
-    options.root_rpy = wbm::rpy_from_rotation(R_UR);
-    EXPECT_NE(wbm::export_urdf(original).find("and root_rpy "), std::string::npos);
-  }
-  const Model back = wbm::parse_urdf(wbm::export_urdf(original), options, entry.id + "_export.urdf");
+  EXPECT_EQ(!options.root_rpy.isZero(0.0), !R_UR.isIdentity(0.0)) << options.root_rpy.transpose();
+  const Model back = wbm::parse_urdf(xml, options, entry.id + "_export.urdf");
   ASSERT_EQ(back.num_dofs(), original.num_dofs());
-  // The same dofs in the same order: a q of the model is a q of the exported file.
+  // The same dofs in the same order, with the same limits: a q of the model is a q of the
+  // exported file.
   for (int i = 0; i < original.num_dofs(); ++i) {
-    ASSERT_EQ(back.dof(i).name, original.dof(i).name) << "dof " << i << " of the file exported and imported again";
-    EXPECT_EQ(back.dof(i).max_effort, original.dof(i).max_effort) << original.dof(i).name;
+    const wbm::Dof &a = original.dof(i), &b = back.dof(i);
+    ASSERT_EQ(b.name, a.name) << "dof " << i << " of the file exported and imported again";
+    EXPECT_EQ(b.max_effort, a.max_effort) << a.name;
+    EXPECT_EQ(b.lower, a.lower) << a.name;
+    EXPECT_EQ(b.upper, a.upper) << a.name;
+    EXPECT_EQ(b.max_speed, a.max_speed) << a.name;
+  }
+  // Every body below the root keeps its inertial (the root's gains the heel's mass).
+  for (int i = original.virtual_dofs().upper_body + 1; i < original.num_bodies(); ++i) {
+    const wbm::Body& a = original.body(i);
+    const wbm::Body& b = back.body(back.frame(back.frame_index(a.name)).body);
+    EXPECT_EQ(b.name, a.name);
+    EXPECT_NEAR(b.inertial.mass, a.inertial.mass, 1e-12 * (1.0 + a.inertial.mass)) << a.name;
+    EXPECT_LT((b.inertial.com - a.inertial.com).norm(), 1e-12) << a.name;
+    EXPECT_LT((b.inertial.inertia - a.inertial.inertia).cwiseAbs().maxCoeff(), 1e-12) << a.name << "\n"
+                                                                                     << b.inertial.inertia;
   }
   // The source's joint names: mimic joints' (Romeo's and NAO's fingers) and fixed joints'.
   int named = 0;
@@ -1624,7 +1670,7 @@ INSTANTIATE_TEST_SUITE_P(ImportVariants, ExportRoundTrip, testing::ValuesIn(wbm_
 /// `arm_multiplier`: the arm's coupling to its dof (URDF can express only 1 there).
 /// The nine virtual bodies (the last the root "trunk", 10 kg) and "arm" (1 kg) on the trunk,
 /// driven by the dof "shoulder" (y axis) times `arm_multiplier`. Returns the arm's body.
-int add_trunk_and_arm(wbm::ModelBuilder& builder, double arm_multiplier = 1.0) {
+int add_trunk_and_arm(wbm::ModelBuilder& builder, double arm_multiplier = 1.0, double arm_offset = 0.0) {
   wbm::Inertial trunk;
   trunk.mass = 10.0;
   const int ub = wbm::add_virtual_base(builder, 1.0, "trunk", wbm::Inertial{}, trunk);
@@ -1640,13 +1686,14 @@ int add_trunk_and_arm(wbm::ModelBuilder& builder, double arm_multiplier = 1.0) {
   dof.max_speed = 2.0;
   arm.dof = builder.add_dof(dof);
   arm.multiplier = arm_multiplier;
+  arm.offset = arm_offset;
   arm.inertial.mass = 1.0;
   return builder.add_body(arm);
 }
 
-Model welded_model(double arm_multiplier = 1.0) {
+Model welded_model(double arm_multiplier = 1.0, double arm_offset = 0.0) {
   wbm::ModelBuilder builder("welded");
-  const int arm_body = add_trunk_and_arm(builder, arm_multiplier);
+  const int arm_body = add_trunk_and_arm(builder, arm_multiplier, arm_offset);
   wbm::Body hand;
   hand.name = "hand";
   hand.parent = arm_body;
@@ -1891,19 +1938,50 @@ TEST(Export, JointBelowAWeldedLinkKeepsItsDofNumber) {
   ASSERT_EQ(back.num_dofs(), original.num_dofs());
   for (int i = 0; i < original.num_dofs(); ++i) EXPECT_EQ(back.dof(i).name, original.dof(i).name) << "dof " << i;
   expect_same_frame_poses(original, back, 9, 50);
+
+  // Two welded links between the torso and the neck (a mount and a bracket on it): the
+  // mount, too, is written before the neck's joint, or the import numbers the neck last.
+  std::string two = xml;
+  const std::string neck_parent = "<parent link=\"head_mount\"/><child link=\"neck\"/>";
+  two.replace(two.find(neck_parent), neck_parent.size(), "<parent link=\"bracket\"/><child link=\"neck\"/>");
+  two.replace(two.find("<joint name=\"neck_pitch\""), 0,
+              "<link name=\"bracket\"/><joint name=\"bracket_joint\" type=\"fixed\"><parent link=\"head_mount\"/>"
+              "<child link=\"bracket\"/><origin xyz=\"0.02 0 0.03\" rpy=\"0.1 0 0\"/></joint>\n");
+  options.root.clear();
+  const Model bracketed = wbm::parse_urdf(two, options, "welded_bracket.urdf");
+  ASSERT_EQ(bracketed.dof(first).name, "neck_pitch");
+  options.root = "torso";
+  const Model bracketed_back = wbm::parse_urdf(wbm::export_urdf(bracketed), options, "welded_bracket_export.urdf");
+  ASSERT_EQ(bracketed_back.num_dofs(), bracketed.num_dofs());
+  for (int i = 0; i < bracketed.num_dofs(); ++i)
+    EXPECT_EQ(bracketed_back.dof(i).name, bracketed.dof(i).name) << "dof " << i << " with the bracket";
+  expect_same_frame_poses(bracketed, bracketed_back, 10, 20);
 }
 
-// A dof that drives its only body with a multiplier has no URDF joint to be: an error that
-// names it, not a file whose joint means another angle.
+// A dof that drives its only body with a multiplier or an offset has no URDF joint to be:
+// an error that names it, not a file whose joint means another angle.
 TEST(Export, DofWithoutAnUnscaledBodyIsAnError) {
-  try {
-    wbm::export_urdf(welded_model(2.0));
-    ADD_FAILURE() << "exported";
-  } catch (const wbm::ModelError& e) {
-    EXPECT_NE(std::string(e.what()).find("dof 'shoulder' drives no body with multiplier 1 and offset 0"),
-              std::string::npos)
-        << e.what();
+  for (const auto& [multiplier, offset] : {std::pair{2.0, 0.0}, std::pair{1.0, 0.25}}) {
+    try {
+      wbm::export_urdf(welded_model(multiplier, offset));
+      ADD_FAILURE() << "exported with multiplier " << multiplier << ", offset " << offset;
+    } catch (const wbm::ModelError& e) {
+      EXPECT_NE(std::string(e.what()).find("dof 'shoulder' drives no body with multiplier 1 and offset 0"),
+                std::string::npos)
+          << e.what();
+    }
   }
+}
+
+// "Did you mean": at most three of the equally close names, in their order; names the typed
+// one contains count only if they make at least half of it.
+TEST(ClosestNames, AtMostThreeAndNoShortParts) {
+  using wbm::internal::did_you_mean;
+  EXPECT_EQ(did_you_mean("a0x", {"a1x", "a2x", "zzz", "a3x", "a4x"}), " (did you mean 'a1x', 'a2x' or 'a3x'?)");
+  EXPECT_EQ(did_you_mean("a0x", {"a1x", "a2x"}), " (did you mean 'a1x' or 'a2x'?)");
+  EXPECT_EQ(did_you_mean("left_hand_link", {"left_hand", "nk", "k"}), " (did you mean 'left_hand'?)");
+  EXPECT_EQ(did_you_mean("left_hand_link", {"nk"}), "");
+  EXPECT_EQ(did_you_mean("left_hand_link", {"hand_link"}), " (did you mean 'hand_link'?)");
 }
 
 // A joint axis written with few digits (norm within 1 % of one) is normalised, as KDL and
@@ -1918,6 +1996,25 @@ std::string one_joint_urdf(const std::string& axis) {
          "<axis xyz=\"" + axis + "\"/><limit lower=\"-2\" upper=\"2\" effort=\"1\" velocity=\"1\"/></joint>\n"
          "<joint name=\"j2\" type=\"fixed\"><parent link=\"l1\"/><child link=\"l2\"/>"
          "<origin xyz=\"0.1 0.2 0.3\"/></joint>\n</robot>\n";
+}
+
+// The export names the joints the model did not keep a name for (an added frame's) after
+// their link, "tip_joint"; where the source has a joint of that name, with an underscore
+// more. Two joints of one name: the file did not import again.
+TEST(Export, GeneratedJointNamesDoNotClashWithTheSources) {
+  std::string xml = one_joint_urdf("0 0 1");
+  const std::string j2 = "<joint name=\"j2\"";
+  xml.replace(xml.find(j2), j2.size(), "<joint name=\"tip_joint\"");
+  wbm::UrdfImportOptions options;
+  options.root_height = 1.0;
+  options.added_frames.push_back({"tip", "l2", Vector3(0.0, 0.0, 0.1), Vector3::Zero()});
+  const Model original = wbm::parse_urdf(xml, options, "tip.urdf");
+  ASSERT_EQ(original.frame(original.frame_index("l2")).joint_name, "tip_joint");
+  const std::string exported = wbm::export_urdf(original);
+  EXPECT_NE(exported.find("<joint name=\"tip_joint_\" type=\"fixed\">"), std::string::npos) << exported;
+  Model back = original;
+  ASSERT_NO_THROW(back = wbm::parse_urdf(exported, options_named_by_export(exported), "tip_export.urdf")) << exported;
+  expect_same_frame_poses(original, back, 11, 10);
 }
 
 TEST(UrdfImport, RoundedJointAxesAreNormalised) {

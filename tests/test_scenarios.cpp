@@ -2109,6 +2109,28 @@ TEST(Scenarios, BadFilesNameTheLineAndField) {
        "bad.yaml:3: tasks[0].name: expected a non-empty name without control characters"},
       {"name: x\ntasks:\n  - {name: \"a\\tb\", type: position, frame: f}\n",
        "bad.yaml:3: tasks[0].name: expected a non-empty name without control characters"},
+      // Each bound at its edge (the cases above lay far beyond most of them, where a bound
+      // moved by half or one would still have caught them).
+      {"name: x\ndt: .inf\ntasks: [{name: a, type: position, frame: f}]\n", "bad.yaml:2: dt: expected a finite number, got '.inf'"},
+      {"name: x\ntasks:\n  - {name: a, type: position, frame: f, filter: {bandwidth: 0.0007}}\n",
+       "bad.yaml:3: tasks[0].filter.bandwidth: expected a number >= 0.001 [1/s]"},
+      {"name: x\ntasks:\n  - {name: a, type: position, frame: f, gain: -0.5}\n", "bad.yaml:3: tasks[0].gain: expected a number >= 0"},
+      {"name: x\nrobot:\n  urdf: g1.urdf\n  upper_body_x_range: [0.1, 0.1]\ntasks: [{name: a, type: position, frame: f}]\n",
+       "bad.yaml:4: robot.upper_body_x_range: expected [lower, upper] in m, finite, lower < upper"},
+      {"name: x\nrecord_every: 2.5\ntasks: [{name: a, type: position, frame: f}]\n",
+       "bad.yaml:2: record_every: expected a whole number of cycles >= 1"},
+      {"name: x\nsolver: {nullspace_gain: -0.5}\ntasks: [{name: a, type: position, frame: f}]\n",
+       "bad.yaml:2: solver.nullspace_gain: expected a number >= 0"},
+      {"name: x\ncriterion: {type: cubic, band: 1}\ntasks: [{name: a, type: position, frame: f}]\n",
+       "bad.yaml:2: criterion.band: expected a number in [0, 1)"},
+      {"name: x\nfeet: {left_frame: l_foot}\ntasks: [{name: a, type: position, frame: f}]\n",
+       "bad.yaml:2: feet: give both left_frame and right_frame, or neither"},
+      {"name: x\nfeet: {spacing: 0.2, left_frame: l_foot, right_frame: r_foot}\ntasks: [{name: a, type: position, frame: f}]\n",
+       "bad.yaml:2: feet: give the spacing or the foot frames to measure it from, not both"},
+      {"name: x\ntasks:\n  - {name: a, type: attitude}\n", "bad.yaml:3: tasks[0].frame: missing (the frame this attitude task moves)"},
+      {"name: x\ntasks:\n  - {name: a, type: joints}\n", "bad.yaml:3: tasks[0].dofs: missing (the dofs of this joints task)"},
+      {"name: x\ntasks: [{name: a, type: position, frame: f}]\ntimeline:\n  - {t: -0.5, activate: [a]}\n",
+       "bad.yaml:4: timeline[0].t: expected a time >= 0 s"},
   };
   for (const BadScenario& c : cases) {
     try {
@@ -2118,6 +2140,27 @@ TEST(Scenarios, BadFilesNameTheLineAndField) {
       EXPECT_NE(std::string(e.what()).find(c.message), std::string::npos) << "got: " << e.what() << "\nwanted: " << c.message;
     }
   }
+}
+
+// What a scenario leaves out takes the documented defaults (docs/scenarios.md): the
+// trajectory filter's speed limit is 1 rad/s for the angle elements (axis and attitude) and
+// FilterParameters' 0.5 m/s for the others; walking's counts are read as given.
+TEST(Scenarios, DefaultsAndCountsAreRead) {
+  const Scenario s = parse_scenario(
+      "name: x\ntasks:\n  - {name: p, type: position, frame: f}\n  - {name: x, type: axis, frame: f}\n"
+      "  - {name: t, type: attitude, frame: f}\n  - {name: c, type: com}\n"
+      "  - {name: s, type: axis, frame: f, filter: {max_speed: 2}}\nwalking: {max_walks: 5, max_steps: 7}\n",
+      "defaults.yaml", ".");
+  ASSERT_EQ(s.tasks.size(), 5u);
+  EXPECT_EQ(s.tasks[0].filter.max_speed, FilterParameters{}.max_speed);
+  EXPECT_EQ(s.tasks[1].filter.max_speed, 1.0);
+  EXPECT_EQ(s.tasks[2].filter.max_speed, 1.0);
+  EXPECT_EQ(s.tasks[3].filter.max_speed, FilterParameters{}.max_speed);
+  EXPECT_EQ(s.tasks[4].filter.max_speed, 2.0);
+  EXPECT_EQ(s.walking.parameters.max_walks, 5);
+  EXPECT_EQ(s.walking.parameters.max_steps, 7);
+  EXPECT_EQ(parse_scenario("name: x\ntasks: [{name: p, type: position, frame: f}]\n", "d.yaml", ".").walking.parameters.max_walks,
+            WalkingParameters{}.max_walks);
 }
 
 TEST(Scenarios, UnknownNamesInTheTimelineAreReportedBeforeRunning) {
