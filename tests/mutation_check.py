@@ -15,7 +15,7 @@ stopping at the first failure. Prints a line per case, KILLED (with the first fa
 or SURVIVED, and exits 1 if any case survived or a case no longer applies (its text not
 found exactly once: update the case with the code). About 8 s per case of src/ and 15-30 s
 per case of apps/ on a 2-core machine after a build of 3-4 minutes (about an hour and a
-half for the 302); not a CTest for that reason.
+half for the 346); not a CTest for that reason.
 
 The first 123 cases (src/, 24 files) were written in the thirty-fifth session. Their first
 runs found nine that no test caught, not even the longer CTests (random scenarios and the
@@ -46,7 +46,15 @@ and root turn were never read back: the round trip now imports with the flags th
 names, and a root turned by hundredths of a radian), products of inertia, offset-only
 mimic couplings, generated joint names that clash with the source's, two welded links above
 a joint; the suggestions' count and parts; and sixteen bounds of the scenario reader that
-the tests passed only far beyond their edge, or not at all.
+the tests passed only far beyond their edge, or not at all. Its 44 cases of the scenario
+runner, the summary and the lines `wbm run` prints left 23 survivors, each now tested: an
+event's deactivate and freeze (no unit test looked at either), the record at t = 0, balance
+started by an event, attitude row names, relative and zero axis targets, a joint target
+above its range, foot frames off the heel's centre line, a NaN target built in code, the
+summary's walk count, feet distance, least margin, largest cost, speed and rate ratios and
+median, the max_steps remedy, and the printed lines' shares, plurals and joins, the CSV's
+record_every and footsteps' feet. One was dropped: the body's lead counted over walking
+cycles only (outside a walk the heel is frozen, and no run tried led further there).
 Standard library only.
 """
 import argparse
@@ -1023,6 +1031,141 @@ CASES = [
     ('cli_export_rename', 'apps/wbm_cli.cpp',
      'if (std::rename(tmp.c_str(), output.c_str()) != 0) throw',
      'if (false) throw'),
+    # apps/runner.cpp: a third list (thirty-seventh session)
+    ('run_rows_by_index', 'apps/runner.cpp',
+     'if (names[r] == component || std::to_string(r) == component) return {r0 + r};',
+     'if (names[r] == component) return {r0 + r};'),
+    ('run_attitude_row_names', 'apps/runner.cpp',
+     'if (type == "attitude") names = {"roll", "pitch", "yaw"};',
+     'if (type == "attitude") names = {"x", "y", "z"};'),
+    ('run_attitude_rotation_distance', 'apps/runner.cpp',
+     'if (type == "attitude" && (all || rows.all()) && a.allFinite() && b.allFinite()) {',
+     'if (false) {'),
+    ('run_distance_nan', 'apps/runner.cpp',
+     '    if (std::isnan(d)) return d;\n',
+     '\n'),
+    ('run_distance_norm', 'apps/runner.cpp',
+     '  return max * std::sqrt(sum);',
+     '  return max * std::sqrt(sum) * 0 + max;'),
+    ('run_rank_infinite', 'apps/runner.cpp',
+     'return sv[2] > 1e-12 * sv[0] ? sv[0] / sv[2] : std::numeric_limits<double>::infinity();',
+     'return sv[0] / sv[2];'),
+    ('run_first_error_by_line', 'apps/runner.cpp',
+     'throw ConfigError(std::min_element(errors.begin(), errors.end(), by_line)->second);',
+     'throw ConfigError(errors.front().second);'),
+    ('run_fixed_base_upright', 'apps/runner.cpp',
+     'Eigen::VectorXd q0 = s.fixed_base ? upright_base_configuration(model, model.home()) : model.home();',
+     'Eigen::VectorXd q0 = model.home();'),
+    ('run_record_activation_at_start', 'apps/runner.cpp',
+     '  stack.activation() = cmd.task_active;  // the record at t = 0',
+     '  (void)stack;  // the record at t = 0'),
+    ('run_target_count', 'apps/runner.cpp',
+     '      if (v.size() != dim)\n',
+     '      if (v.size() > dim)\n'),
+    ('run_relative_axis', 'apps/runner.cpp',
+     'if (relative && stack.element(e).target_kind() == TargetKind::kDirection)',
+     'if (false)'),
+    ('run_zero_direction', 'apps/runner.cpp',
+     'if (!relative && stack.element(e).target_kind() == TargetKind::kDirection && v.norm() < 1e-9)',
+     'if (false)'),
+    ('run_joint_target_above', 'apps/runner.cpp',
+     '!dof.continuous && !(v[k_dof] >= dof.lower && v[k_dof] <= dof.upper)',
+     '!dof.continuous && !(v[k_dof] >= dof.lower)'),
+    ('run_joint_target_short', 'apps/runner.cpp',
+     '<< std::abs(v[k_dof] - std::clamp(v[k_dof], dof.lower, dof.upper))',
+     '<< std::abs(v[k_dof])'),
+    ('run_feet_spacing_both', 'apps/runner.cpp',
+     'feet.spacing = std::abs(yl - yr);',
+     'feet.spacing = 2.0 * std::abs(yl);'),
+    ('run_balance_by_event', 'apps/runner.cpp',
+     '  for (const ScenarioEvent& ev : s.events) balance_needed |= ev.balance == 1;\n',
+     '\n'),
+    ('run_stand_at_start', 'apps/runner.cpp',
+     '      walking->stand_at(c.q());',
+     '      (void)0;'),
+    ('run_scaled_fields', 'apps/runner.cpp',
+     '(scaled_fields.empty() ? "" : " (not given, scaled',
+     '(true ? "" : " (not given, scaled'),
+    ('run_leg_reference_note', 'apps/runner.cpp',
+     '(name == t.frame ? "frame" : "reference")',
+     '"frame"'),
+    ('run_tracking_to_filtered', 'apps/runner.cpp',
+     'track[i] = distance(s.tasks[i].type, c.values().segment(t0, n), c.filtered_targets().segment(t0, n), rows);',
+     'track[i] = distance(s.tasks[i].type, c.values().segment(t0, n), cmd.targets.segment(t0, n), rows);'),
+    ('run_record_active', 'apps/runner.cpp',
+     'act[i] = stack.element_active(i) ? 1.0 : 0.0;',
+     'act[i] = 1.0;'),
+    ('run_record_margin', 'apps/runner.cpp',
+     'c.q()[model.virtual_dofs().ub_x], c.q()[model.virtual_dofs().ub_y], support.signed_distance(com);',
+     'c.q()[model.virtual_dofs().ub_x], c.q()[model.virtual_dofs().ub_y], 0.0;'),
+    ('run_record_walking', 'apps/runner.cpp',
+     'h.yaw, walking->walking() ? 1.0 : 0.0,',
+     'h.yaw, 1.0,'),
+    ('run_balance_over_plan', 'apps/runner.cpp',
+     'const SupportPolygon target = walking ? walking->balance_support(c.q()) : support;',
+     'const SupportPolygon target = support;'),
+    ('run_event_rows_off', 'apps/runner.cpp',
+     '      for (int row : r.off) cmd.task_active[row] = false;\n',
+     '\n'),
+    ('run_event_freeze', 'apps/runner.cpp',
+     '      for (int d : r.freeze) cmd.free_dofs[d] = false;\n',
+     '\n'),
+    ('sum_speed_ratio', 'apps/runner.cpp',
+     'if (v / model.dof(i).max_speed > max_speed_ratio) {',
+     'if (v > max_speed) {'),
+    ('sum_acc_ratio', 'apps/runner.cpp',
+     'if (k_rate > 0.0 && a / (k_rate * model.dof(i).max_speed) > max_acc_ratio) {\n'
+     '          max_acc_ratio = a / (k_rate * model.dof(i).max_speed);',
+     'if (k_rate > 0.0 && a / k_rate > max_acc_ratio) {\n'
+     '          max_acc_ratio = a / k_rate;'),
+    ('sum_limit_joints_only', 'apps/runner.cpp',
+     'if (!model.dof(i).continuous && model.dof(i).role == DofRole::kJoint) {',
+     'if (!model.dof(i).continuous) {'),
+    ('sum_median', 'apps/runner.cpp',
+     '{"median", us[us.size() / 2]}',
+     '{"median", us[us.size() / 4]}'),
+    ('sum_at_limit_lower', 'apps/runner.cpp',
+     'if (q - d.lower < 1e-6) joints_at_limit.push_back',
+     'if (q - d.lower < -1.0) joints_at_limit.push_back'),
+    ('sum_walks_count', 'apps/runner.cpp',
+     'walks += (run.walking[k][3] > 0.0 && run.walking[k - 1][3] == 0.0) ? 1 : 0;',
+     'walks += (run.walking[k][3] > 0.0) ? 1 : 0;'),
+    ('sum_feet_from_body', 'apps/runner.cpp',
+     'out["walking"]["feet_from_body"] = std::hypot(h[0] - q[v.heel_x], h[1] - q[v.heel_y]);',
+     'out["walking"]["feet_from_body"] = std::hypot(h[0] - q[v.heel_x], 0.0);'),
+    ('sum_min_margin', 'apps/runner.cpp',
+     'for (const Eigen::VectorXd& b : run.balance) min_margin = std::min(min_margin, b[6]);',
+     'min_margin = run.balance.back()[6];'),
+    ('sum_reach_spare', 'apps/runner.cpp',
+     'std::ceil((a.needed + 0.01) * 100.0) / 100.0',
+     'std::ceil((a.needed) * 100.0) / 100.0'),
+    ('sum_step_limit_remedy', 'apps/runner.cpp',
+     'out["walking"]["feet_from_body"].get<double>() > run.walking_parameters.feet_tolerance)',
+     'out["walking"]["feet_from_body"].get<double>() > 1e9)'),
+    ('sum_cost_max', 'apps/runner.cpp',
+     '{"max", *std::max_element(run.cost.begin(), run.cost.end())}',
+     '{"max", run.cost.back()}'),
+    ('desc_shift_percent', 'apps/runner.cpp',
+     '<< " balanced cycles (" << 100.0 * cycles / std::max(balanced_cycles, 1)',
+     '<< " balanced cycles (" << 10.0 * cycles / std::max(balanced_cycles, 1)'),
+    ('desc_walks_plural', 'apps/runner.cpp',
+     '<< (walks == 1 ? " walk" : " walks")',
+     '<< " walks"'),
+    ('desc_lead_unbounded', 'apps/runner.cpp',
+     '    if (bound > 0.0) lead << std::setprecision(2) << "held beyond "',
+     '    if (bound > -1.0) lead << std::setprecision(2) << "held beyond "'),
+    ('desc_last_cycle_join', 'apps/runner.cpp',
+     'if (!dofs.empty()) why += (why.empty() ? "" : "; ")',
+     'if (!dofs.empty()) why += std::string("")'),
+    ('csv_quote', 'apps/runner.cpp',
+     "for (const char c : text) quoted += c == '\"' ? std::string(\"\\\"\\\"\") : std::string(1, c);",
+     "for (const char c : text) quoted += std::string(1, c);"),
+    ('csv_record_every', 'apps/runner.cpp',
+     'for (int k = 0; k < run.num_cycles(); k += s.record_every) {',
+     'for (int k = 0; k < run.num_cycles(); k += 1) {'),
+    ('csv_footsteps_foot', 'apps/runner.cpp',
+     '(f.left ? "L" : "R")',
+     '"L"'),
 ]
 
 def run(command, cwd, timeout=None):

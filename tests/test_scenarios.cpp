@@ -1739,7 +1739,10 @@ TEST(Scenarios, BalanceReportDrawsTheFeetAndTheCentreOfMass) {
   EXPECT_EQ(last[2].get<double>(), 0.0);
 }
 
-/// Every shipped scenario runs cleanly, writes its three (or four) files and keeps every
+std::vector<std::string> csv_fields(const std::string& line);
+
+/// Every shipped scenario runs cleanly, writes its three (or four) files (a trajectory row
+/// every record_every cycles, a footstep row per landing with its foot) and keeps every
 /// joint's acceleration within the Controller's bound.
 TEST(Scenarios, EveryShippedScenarioRunsAndWritesItsOutputs) {
   namespace fs = std::filesystem;
@@ -1759,6 +1762,21 @@ TEST(Scenarios, EveryShippedScenarioRunsAndWritesItsOutputs) {
     std::string header;
     std::getline(csv, header);
     EXPECT_EQ(header.rfind("time,status,q.", 0), 0u) << header;
+    int rows = 0;
+    for (std::string line; std::getline(csv, line);) ++rows;
+    ASSERT_GT(s.record_every, 1) << s.name;
+    EXPECT_EQ(rows, (run->num_cycles() + s.record_every - 1) / s.record_every) << s.name;
+    if (s.walking.enabled) {
+      std::ifstream steps(out / s.name / "footsteps.csv");
+      std::string line;
+      std::getline(steps, line);
+      EXPECT_EQ(line, "time,foot,x,y,yaw");
+      for (const Footstep& f : run->footsteps) {
+        ASSERT_TRUE(std::getline(steps, line)) << s.name;
+        EXPECT_EQ(csv_fields(line).at(1), f.left ? "L" : "R") << s.name << ": " << line;
+      }
+      EXPECT_FALSE(std::getline(steps, line)) << s.name;
+    }
     // No joint's rate changed faster than the Controller's bound k v_max (the balance
     // shift's start: 6x it before the bound covered external velocities).
     const nlohmann::json summary = summarize(*run);
@@ -1897,6 +1915,101 @@ TEST(Scenarios, TheSummaryMeasuresWhatItsFieldsSay) {
   EXPECT_NEAR(elements["late"]["max_error"].get<double>(), 10.0, 1e-9);  // mm
   EXPECT_NEAR(summary["min_distance_to_limit"]["value"].get<double>(), 0.001, 1e-12);
   EXPECT_EQ(summary["min_distance_to_limit"]["dof"], "l_elbow");
+}
+
+// The summary's numbers, recomputed from the run's records on a walk that max_steps ends
+// with the feet left behind and balance holding the upper body at its shift limit: walks
+// counted as starts (not walking cycles), the body's lead over the walking cycles, the feet's
+// distance from the body in x and y, the
+// least com margin, the largest null-space cost, the dofs nearest their speed limit and their
+// rate-change bound (ratios, not absolute values: the heel and the joints have different
+// limits) and the cycle time's median; and the remedy that names max_steps.
+TEST(Scenarios, TheSummaryOfAWalkAndBalanceIsItsRecords) {
+  const auto run = run_scenario(parse_scenario(
+      "name: w\nrobot: {builtin: paper}\ndt: 0.002\nduration: 4\nbalance: {enabled: true}\n"
+      "walking: {enabled: true, max_steps: 2}\n"
+      "tasks: [{name: hand, type: position, frame: l_hand_ref, active: true},\n"
+      "        {name: look, type: joints, dofs: [head_pan], active: true, filter: {max_speed: 0.5}}]\n"
+      "timeline:\n  - {t: 0, relative_targets: {hand: [1.0, 0.6, 0], look: [0.8]}}\n",
+      "w.yaml", "."));
+  const nlohmann::json summary = summarize(*run);
+  const Model& model = *run->model;
+  const VirtualDofs& v = model.virtual_dofs();
+  const int K = run->num_cycles();
+  int walks = 0, walking_cycles = 0;
+  double lead = 0.0;
+  for (int k = 0; k < K; ++k) {
+    walks += k > 0 && run->walking[k][3] > 0.0 && run->walking[k - 1][3] == 0.0;
+    walking_cycles += run->walking[k][3] > 0.0;
+    if (run->walking[k][3] > 0.0) lead = std::max(lead, body_lead(*run, k));
+  }
+  const nlohmann::json& w = summary["walking"];
+  ASSERT_EQ(walks, 1);
+  ASSERT_GT(walking_cycles, 1);
+  EXPECT_EQ(w["walks"].get<int>(), walks);
+  EXPECT_EQ(w["walks_at_step_limit"].get<int>(), 1);
+  EXPECT_FALSE(w["walking_at_end"].get<bool>());
+  EXPECT_EQ(w["max_body_lead"].get<double>(), lead);
+  const Eigen::VectorXd& h = run->walking.back();
+  const Eigen::VectorXd& q = run->q.back();
+  ASSERT_GT(std::abs(h[1] - q[v.heel_y]), 0.01);
+  EXPECT_NEAR(w["feet_from_body"].get<double>(), std::hypot(h[0] - q[v.heel_x], h[1] - q[v.heel_y]), 1e-12);
+
+  double min_margin = 1e300;
+  for (const Eigen::VectorXd& b : run->balance) min_margin = std::min(min_margin, b[6]);
+  ASSERT_LT(min_margin, run->balance.back()[6] - 1e-6);
+  EXPECT_EQ(summary["balance"]["min_com_margin"].get<double>(), min_margin);
+  const nlohmann::json& held = summary["balance"]["shift_at_limit"];
+  ASSERT_FALSE(held.empty()) << summary["balance"];
+  EXPECT_NE(held[0]["remedy"].get<std::string>().find("raise walking.max_steps"), std::string::npos) << held;
+
+  const double max_cost = *std::max_element(run->cost.begin(), run->cost.end());
+  ASSERT_GT(max_cost, run->cost.back());
+  EXPECT_EQ(summary["nullspace_cost"]["max"].get<double>(), max_cost);
+
+  double speed_ratio = 0.0, acc_ratio = 0.0, fastest = 0.0, largest_acc = 0.0;
+  int speed_dof = -1, acc_dof = -1, fastest_dof = -1, largest_acc_dof = -1;
+  const double k_rate = run->scenario.solver.nullspace_rate_change_limit;
+  for (int k = 0; k < K; ++k)
+    for (int i = 0; i < model.num_dofs(); ++i) {
+      const double rate = std::abs(run->qdot[k][i]);
+      if (rate / model.dof(i).max_speed > speed_ratio) speed_ratio = rate / model.dof(i).max_speed, speed_dof = i;
+      if (rate > fastest) fastest = rate, fastest_dof = i;
+      const double a = k > 0 ? std::abs(run->qdot[k][i] - run->qdot[k - 1][i]) / run->scenario.dt : 0.0;
+      if (a / (k_rate * model.dof(i).max_speed) > acc_ratio) acc_ratio = a / (k_rate * model.dof(i).max_speed), acc_dof = i;
+      if (a > largest_acc) largest_acc = a, largest_acc_dof = i;
+    }
+  ASSERT_NE(speed_dof, fastest_dof) << "the test needs a dof nearest its limit that is not the fastest";
+  EXPECT_EQ(summary["max_joint_speed"]["dof"], model.dof(speed_dof).name);
+  EXPECT_NEAR(summary["max_joint_speed"]["ratio_to_limit"].get<double>(), speed_ratio, 1e-12);
+  ASSERT_NE(acc_dof, largest_acc_dof) << "the test needs a dof nearest its rate-change bound that is not the fastest to "
+                                          "change: both " << model.dof(acc_dof).name;
+  EXPECT_EQ(summary["max_joint_acceleration"]["dof"], model.dof(largest_acc_dof).name);
+  EXPECT_EQ(summary["max_joint_acceleration_to_bound"]["dof"], model.dof(acc_dof).name);
+  EXPECT_NEAR(summary["max_joint_acceleration_to_bound"]["ratio"].get<double>(), acc_ratio, 1e-12);
+
+  std::vector<double> us(run->cycle_us.begin() + 1, run->cycle_us.end());
+  std::sort(us.begin(), us.end());
+  EXPECT_EQ(summary["cycle_time_us"]["median"].get<double>(), us[us.size() / 2]);
+}
+
+// The lines `wbm run` prints from the summary: counts and shares as numbers say them.
+TEST(Scenarios, TheSummaryLinesSayTheirNumbers) {
+  const nlohmann::json entry = {{"dof", "upper_body_x"}, {"cycles", 30}, {"limit", 0.14}, {"needed", 0.2}, {"remedy", "r"}};
+  EXPECT_EQ(describe_shift_at_limit(entry, 120),
+            "upper_body_x held at its limit 14.0 cm in 30 of 120 balanced cycles (25.0 %); the centre of mass would "
+            "have needed 20.0 cm: r");
+  nlohmann::json walking = {{"walks", 1}, {"footsteps", 3}, {"walking_at_end", false}, {"max_body_lead", 0.2},
+                            {"walks_at_step_limit", 0}, {"feet_from_body", 0.0},
+                            {"steps", {{"max_step_length", 0.25}, {"min_step_width", 0.14}, {"max_step_width", 0.3},
+                                       {"step_duration", 0.6}, {"max_steps", 60}, {"max_heel_lead", 2.0}}}};
+  EXPECT_EQ(describe_walking(walking)[0].rfind("3 footsteps in 1 walk (", 0), 0u) << describe_walking(walking)[0];
+  walking["walks"] = 2;
+  EXPECT_EQ(describe_walking(walking)[0].rfind("3 footsteps in 2 walks (", 0), 0u) << describe_walking(walking)[0];
+  const nlohmann::json at_end = {{"damped", true},
+                                 {"dofs_at_limit", {{{"dof", "a"}, {"limit", "lower"}}, {{"dof", "b"}, {"limit", "upper"}}}}};
+  EXPECT_EQ(describe_last_cycle(at_end),
+            "damped (near a singularity, or a target out of reach); at a position limit: a (lower), b (upper)");
 }
 
 // The report's condition number of a hand's position rows weighs each dof's column by its
@@ -2163,6 +2276,70 @@ TEST(Scenarios, DefaultsAndCountsAreRead) {
             WalkingParameters{}.max_walks);
 }
 
+// The record at t = 0 shows the rows as the file starts them (`active: true` on); balance
+// switched on only by an event (no balance section) balances from then on; an event's
+// deactivate and freeze apply in its cycle (the left elbow then stays put, exactly, while
+// the left hand's element, switched on in the same event, moves the rest of the arm).
+TEST(Scenarios, TheStartIsRecordedAsGivenAndEventsApplyInTheirCycle) {
+  const auto run = run_scenario(parse_scenario(
+      "name: s\nduration: 0.2\ntasks:\n  - {name: a, type: position, frame: l_hand_ref, active: false}\n"
+      "  - {name: b, type: position, frame: r_hand_ref, active: true}\ntimeline:\n  - {t: 0.1, balance: true}\n"
+      "  - {t: 0.15, deactivate: [b], freeze: [l_elbow], activate: [a], relative_targets: {a: [0.1, 0.1, -0.1]}}\n",
+      "s.yaml", "."));
+  ASSERT_EQ(run->active.size(), 201u);
+  EXPECT_EQ(run->active[0][0], 0.0);
+  EXPECT_EQ(run->active[0][1], 1.0);
+  EXPECT_EQ(summarize(*run)["balance"]["balanced_cycles"].get<int>(), 100);
+  EXPECT_EQ(run->active[150][1], 1.0);
+  EXPECT_EQ(run->active[151][1], 0.0);
+  EXPECT_EQ(run->active.back()[1], 0.0);
+  const int elbow = run->model->dof_index("l_elbow"), shoulder = run->model->dof_index("l_shoulder_pitch");
+  for (int k = 151; k < 201; ++k) ASSERT_EQ(run->q[k][elbow], run->q[150][elbow]) << k;
+  EXPECT_GT(std::abs(run->q.back()[shoulder] - run->q[150][shoulder]), 1e-4);
+}
+
+// A scenario built in code can hold a NaN target (files cannot): the controller keeps the
+// last valid one (kInvalidTarget) and the recorded distance to the NaN target is NaN, not the
+// distance of the other components.
+TEST(Scenarios, ANaNTargetBuiltInCodeHasANaNDistance) {
+  Scenario s = parse_scenario(
+      "name: s\nduration: 0.02\ntasks:\n  - {name: a, type: position, frame: l_hand_ref, active: true}\n"
+      "  - {name: j, type: joints, dofs: [l_elbow, head_pan], active: true}\n"
+      "timeline:\n  - {t: 0.01, targets: {a: [0.3, 0.2, 0.9], j: [-0.5, 0.3]}}\n",
+      "s.yaml", ".");
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  s.events[0].targets[0].second[1] = nan;
+  s.events[0].targets[1].second[0] = nan;  // a joint row: not hidden by the other's distance
+  const auto run = run_scenario(s);
+  for (const int e : {0, 1}) {
+    EXPECT_TRUE(std::isnan(run->error.back()[e])) << e << ": " << run->error.back()[e];
+    EXPECT_TRUE(std::isfinite(run->error[5][e])) << e;
+  }
+  EXPECT_GT(summarize(*run)["status_cycles"]["invalid_target"].get<int>(), 0);
+  for (const Eigen::VectorXd& q : run->q) ASSERT_TRUE(q.allFinite());
+}
+
+// Foot frames give the feet's spacing as their lateral distance in the heel frame, whichever
+// way the two lie about the heel (here a right foot frame moved 5 cm inwards).
+TEST(Scenarios, FootFramesGiveTheSpacingBetweenThem) {
+  const wbm_test::ShippedModel& g1 = wbm_test::shipped_model("g1_29dof");
+  const auto spacing = [&](const std::string& right) {
+    RunOptions options;
+    options.check_only = true;
+    const auto run = run_scenario(
+        parse_scenario("name: f\nrobot:\n  urdf: " + g1.path + "\n  legs: [left_hip_pitch_link, right_hip_pitch_link]\n"
+                       "  add_frames: [{name: inner, parent: right_ankle_roll_link, xyz: [0, 0.05, 0]}]\n"
+                       "feet: {length: 0.2, width: 0.08, left_frame: left_ankle_roll_link, right_frame: " + right + "}\n"
+                       "balance: {enabled: true}\ntasks: [{name: a, type: com}]\n",
+                       "f.yaml", "."),
+        options);
+    return run->feet.spacing;
+  };
+  const double apart = spacing("right_ankle_roll_link");
+  EXPECT_GT(apart, 0.1);
+  EXPECT_NEAR(spacing("inner"), apart - 0.05, 1e-12);
+}
+
 TEST(Scenarios, UnknownNamesInTheTimelineAreReportedBeforeRunning) {
   const BadScenario cases[] = {
       // The event's field and the entry's line; the closest element name, or all of them.
@@ -2177,6 +2354,12 @@ TEST(Scenarios, UnknownNamesInTheTimelineAreReportedBeforeRunning) {
        "bad.yaml:5: timeline[0].relative_targets.a: expected 1 value, got 2"},
       {"name: x\ntasks: [{name: a, type: position, frame: l_hand_ref}]\ntimeline:\n  - t: 0.5\n    activate: [a.w]\n",
        "bad.yaml:5: timeline[0].activate: task element 'a' has no row 'w' (its rows: a.x, a.y, a.z)"},
+      {"name: x\ntasks: [{name: t, type: attitude, frame: l_hand_ref}]\ntimeline:\n  - t: 0.5\n    activate: [t.w]\n",
+       "bad.yaml:5: timeline[0].activate: task element 't' has no row 'w' (its rows: t.roll, t.pitch, t.yaw)"},
+      {"name: x\ntasks: [{name: v, type: axis, frame: head_camera}]\ntimeline:\n  - t: 0.5\n    relative_targets: {v: [0, 0, 1]}\n",
+       "bad.yaml:5: timeline[0].relative_targets.v: axis targets must be absolute directions"},
+      {"name: x\ntasks: [{name: v, type: axis, frame: head_camera}]\ntimeline:\n  - t: 0.5\n    targets: {v: [0, 0, 0]}\n",
+       "bad.yaml:5: timeline[0].targets.v: the direction must not be zero"},
       {"name: x\ntasks: [{name: hand, type: position, frame: l_hand_ref}]\ntimeline:\n  - t: 0.5\n    deactivate: [hnd]\n",
        "bad.yaml:5: timeline[0].deactivate: no task element named 'hnd' (did you mean 'hand'?)"},
       // Names the model lacks: the scenario's line and field, then the model's message.
@@ -2306,6 +2489,9 @@ TEST(Scenarios, AJointTargetOutsideItsRangeIsNoted) {
            << "its range [" << elbow.lower << ", " << elbow.upper << "]: the joint stops at its limit, 1 rad short";
   EXPECT_EQ(outside[0].get<std::string>(), expected.str()) << outside;
   EXPECT_EQ(notes("targets: {j: [0.1, " + std::to_string(elbow.lower + 0.1) + "]}"), nlohmann::json::array());
+  const nlohmann::json above = notes("targets: {j: [0.1, " + std::to_string(elbow.upper + 0.5) + "]}");
+  ASSERT_EQ(above.size(), 1u) << above;
+  EXPECT_NE(above[0].get<std::string>().find("the joint stops at its limit, 0.5 rad short"), std::string::npos) << above;
   // A relative target's value is known only when the event applies: not noted.
   EXPECT_EQ(notes("relative_targets: {j: [0.1, -9]}"), nlohmann::json::array());
 }
