@@ -165,6 +165,30 @@ TEST(Walking, ATargetRecedingFasterThanTheWalkIsFollowedInOneWalk) {
   EXPECT_LT((c.values().head<3>() - Vector3(3.6, 0.5, 0.75)).norm(), 0.01);
 }
 
+/// Runs `c` (a controller of the paper model, no elements yet) for 6 s with `walking` and
+/// one joint row on the heel dof `dof` asking for `target`: with the heel frozen the error
+/// stalls, which starts the walk. Returns the walks started.
+int walk_to_heel_joint_target(const Model& model, const std::string& dof, double target, Controller& c,
+                              WalkingModule& walking) {
+  c.add_task(std::make_unique<JointTask>(model, "heel", std::vector<std::string>{dof}), {3.0, 0.4, 2});
+  c.reset(model.home());
+  Command cmd = c.make_command();
+  cmd.task_active.setConstant(true);
+  cmd.targets[0] = target;
+  ControllerStatus last;
+  int walks = 0;
+  const double dt = 0.002;
+  for (int k = 0; k < 3000; ++k) {
+    walks += (walking.update(c, last, k * dt, dt, cmd) & kWalkTriggered) != 0;
+    last = c.update(cmd, dt);
+    if (!last.ok()) {
+      ADD_FAILURE() << "cycle " << k << " failed";
+      break;
+    }
+  }
+  return walks;
+}
+
 // A walk whose heel only turns, by less than the feet's places move within feet_tolerance
 // (0.07 rad: each foot's place 6 mm away) but by more than the feet's angular tolerance
 // (twice feet_tolerance in rad, 0.04): the feet step until they face the heel's yaw, not
@@ -172,24 +196,11 @@ TEST(Walking, ATargetRecedingFasterThanTheWalkIsFollowedInOneWalk) {
 // the heel frozen the error stalls, which starts the walk.
 TEST(Walking, AWalkThatOnlyTurnsTurnsTheFeet) {
   const Model model = make_paper_model();
-  Controller c(model);
-  c.add_task(std::make_unique<JointTask>(model, "turn", std::vector<std::string>{"heel_yaw"}), {3.0, 0.4, 2});
-  c.reset(model.home());
-  Command cmd = c.make_command();
-  cmd.task_active.setConstant(true);
-  cmd.targets[0] = 0.07;
   const FootGeometry feet;
   const WalkingParameters parameters = scaled_walking_parameters(model, feet);
+  Controller c(model);
   WalkingModule walking(model, feet, parameters);
-  ControllerStatus last;
-  int walks = 0;
-  const double dt = 0.002;
-  for (int k = 0; k < 3000; ++k) {
-    walks += (walking.update(c, last, k * dt, dt, cmd) & kWalkTriggered) != 0;
-    last = c.update(cmd, dt);
-    ASSERT_TRUE(last.ok()) << k;
-  }
-  ASSERT_EQ(walks, 1);
+  ASSERT_EQ(walk_to_heel_joint_target(model, "heel_yaw", 0.07, c, walking), 1);
   ASSERT_FALSE(walking.walking());
   EXPECT_NEAR(c.q()[model.virtual_dofs().heel_yaw], 0.07, parameters.angle_tolerance);  // the walk ends within it
   EXPECT_GE(walking.num_footsteps(), 2) << "both feet turned";
@@ -203,26 +214,13 @@ TEST(Walking, AWalkThatOnlyTurnsTurnsTheFeet) {
 // behind). A joint row on heel_x asks for the move; with the heel frozen the error stalls.
 TEST(Walking, AWalkOfTwiceTheFeetToleranceStepsTheFeetThere) {
   const Model model = make_paper_model();
-  Controller c(model);
-  c.add_task(std::make_unique<JointTask>(model, "forward", std::vector<std::string>{"heel_x"}), {3.0, 0.4, 2});
-  c.reset(model.home());
-  Command cmd = c.make_command();
-  cmd.task_active.setConstant(true);
   const FootGeometry feet;
   const WalkingParameters parameters = scaled_walking_parameters(model, feet);
   ASSERT_NEAR(parameters.feet_tolerance, 0.02, 1e-12);
-  cmd.targets[0] = 2.0 * parameters.feet_tolerance;
+  Controller c(model);
   WalkingModule walking(model, feet, parameters);
   const FootPose left0 = walking.left_foot(), right0 = walking.right_foot();
-  ControllerStatus last;
-  int walks = 0;
-  const double dt = 0.002;
-  for (int k = 0; k < 3000; ++k) {
-    walks += (walking.update(c, last, k * dt, dt, cmd) & kWalkTriggered) != 0;
-    last = c.update(cmd, dt);
-    ASSERT_TRUE(last.ok()) << k;
-  }
-  ASSERT_EQ(walks, 1);
+  ASSERT_EQ(walk_to_heel_joint_target(model, "heel_x", 2.0 * parameters.feet_tolerance, c, walking), 1);
   ASSERT_FALSE(walking.walking());
   const double heel_x = c.q()[model.virtual_dofs().heel_x];
   EXPECT_NEAR(heel_x, 0.04, parameters.position_tolerance);
