@@ -69,10 +69,10 @@ TEST(Cli, ModelInfoNotesImplausibleSpeedLimits) {
                          "<link name=\"a\"/><link name=\"b\"/><link name=\"c\"/>\n"
                          "<joint name=\"slow\" type=\"revolute\"><parent link=\"base\"/><child link=\"a\"/><axis xyz=\"0 0 1\"/>"
                          "<limit lower=\"-1\" upper=\"1\" effort=\"1\" velocity=\"30\"/></joint>\n"
-                         "<joint name=\"fast\" type=\"revolute\"><parent link=\"a\"/><child link=\"b\"/><axis xyz=\"0 1 0\"/>"
-                         "<limit lower=\"-1\" upper=\"1\" effort=\"1\" velocity=\"1e9\"/></joint>\n"
-                         "<joint name=\"round\" type=\"revolute\"><parent link=\"b\"/><child link=\"c\"/><axis xyz=\"1 0 0\"/>"
-                         "<limit lower=\"-1\" upper=\"1\" effort=\"1\" velocity=\"100\"/></joint>\n</robot>\n";
+                         "<joint name=\"round\" type=\"revolute\"><parent link=\"a\"/><child link=\"b\"/><axis xyz=\"0 1 0\"/>"
+                         "<limit lower=\"-1\" upper=\"1\" effort=\"1\" velocity=\"100\"/></joint>\n"
+                         "<joint name=\"fast\" type=\"revolute\"><parent link=\"b\"/><child link=\"c\"/><axis xyz=\"1 0 0\"/>"
+                         "<limit lower=\"-1\" upper=\"1\" effort=\"1\" velocity=\"1e9\"/></joint>\n</robot>\n";
   const CliRun r = wbm_cli("model info '" + file + "' --root-height 1");
   const CliRun as_json = wbm_cli("model info '" + file + "' --root-height 1 --json");
   std::remove(file.c_str());
@@ -220,6 +220,16 @@ TEST(Cli, ModelInfoNotesAWorldLinkThatIsNotWbmsWorld) {
   std::ofstream(file) << xml;
   const CliRun turned = wbm_cli("model info '" + file + "'");
   const CliRun fixed = wbm_cli("model info '" + file + "' --root-rpy 0,0,1.5707963267948966");
+  // With a turn of the user's own, the flag the note suggests is still the root's whole turn
+  // that puts the file's world on wbm's (it replaces the user's): given, the note goes.
+  const CliRun own = wbm_cli("model info '" + file + "' --root-rpy 0.2,0,0");
+  const std::size_t flag = own.out.find("(--root-rpy "), end = own.out.find(' ', flag + 12);
+  ASSERT_NE(flag, std::string::npos) << own.out;
+  const std::string suggested = own.out.substr(flag + 12, end - flag - 12);
+  EXPECT_EQ(suggested, "0,0,1.570796327") << own.out;
+  const CliRun again = wbm_cli("model info '" + file + "' --root-rpy " + suggested);
+  EXPECT_EQ(again.status, 0) << again.err;
+  EXPECT_EQ(again.out.find("world link is not"), std::string::npos) << suggested << "\n" << again.out;
   std::remove(file.c_str());
   EXPECT_EQ(turned.status, 0) << turned.err;
   EXPECT_NE(turned.out.find("note: the URDF's world link is not wbm's world frame: with the base upright (as a fixed base "
