@@ -223,8 +223,9 @@ TEST(Cli, ModelInfoNotesAWorldLinkThatIsNotWbmsWorld) {
   // With a turn of the user's own, the flag the note suggests is still the root's whole turn
   // that puts the file's world on wbm's (it replaces the user's): given, the note goes.
   const CliRun own = wbm_cli("model info '" + file + "' --root-rpy 0.2,0,0");
-  const std::size_t flag = own.out.find("(--root-rpy "), end = own.out.find(' ', flag + 12);
+  const std::size_t flag = own.out.find("(--root-rpy ");
   ASSERT_NE(flag, std::string::npos) << own.out;
+  const std::size_t end = own.out.find(' ', flag + 12);
   const std::string suggested = own.out.substr(flag + 12, end - flag - 12);
   EXPECT_EQ(suggested, "0,0,1.570796327") << own.out;
   const CliRun again = wbm_cli("model info '" + file + "' --root-rpy " + suggested);
