@@ -1888,6 +1888,75 @@ TEST(Kinematics, WeldedBodiesHaveNoJacobianColumn) {
   }
 }
 
+// The centre of mass sums every body, the first one and those of every root: a ModelBuilder
+// model may have several roots (a body whose parent is -1: the world), and here the first
+// body, itself a root, has mass (in the shipped models the first bodies are the massless
+// virtual heel's). Both functions agree with the mass-weighted mean computed here, and the
+// Jacobian of the centre of mass matches central differences.
+TEST(Kinematics, TheCentreOfMassSumsEveryBodyOfEveryRoot) {
+  wbm::ModelBuilder builder("two_roots");
+  auto add_dof = [&](const std::string& name, wbm::JointType type) {
+    wbm::Dof dof;
+    dof.name = name;
+    dof.type = type;
+    dof.lower = -1.0;
+    dof.upper = 1.0;
+    dof.max_speed = 1.0;
+    return builder.add_dof(dof);
+  };
+  wbm::Body slider;  // a root on a prismatic x joint, 2 kg off its origin
+  slider.name = "slider";
+  slider.joint_type = wbm::JointType::kPrismatic;
+  slider.axis = Vector3::UnitX();
+  slider.dof = add_dof("slide", wbm::JointType::kPrismatic);
+  slider.inertial.mass = 2.0;
+  slider.inertial.com = {0.1, 0.2, 0.0};
+  builder.add_body(slider);
+  wbm::Body turntable;  // a second root, 3 kg, turning about z one metre away
+  turntable.name = "turntable";
+  turntable.X_PJ.p = {1.0, 0.0, 0.0};
+  turntable.dof = add_dof("turn", wbm::JointType::kRevolute);
+  turntable.inertial.mass = 3.0;
+  turntable.inertial.com = {0.3, 0.0, 0.1};
+  const int table = builder.add_body(turntable);
+  wbm::Body arm;  // 1 kg on the turntable, pitching about y
+  arm.name = "arm";
+  arm.parent = table;
+  arm.X_PJ.p = {0.0, 0.2, 0.5};
+  arm.axis = Vector3::UnitY();
+  arm.dof = add_dof("pitch", wbm::JointType::kRevolute);
+  arm.inertial.mass = 1.0;
+  arm.inertial.com = {0.0, 0.0, -0.4};
+  builder.add_body(arm);
+  const Model model = builder.build();
+  ASSERT_EQ(model.total_mass(), 6.0);
+
+  std::mt19937_64 rng(38);
+  Data data(model), plus(model), minus(model);
+  Eigen::MatrixXd J(3, model.num_dofs());
+  for (int c = 0; c < 20; ++c) {
+    const Eigen::VectorXd q = wbm_test::random_configuration(model, rng);
+    forward_kinematics(model, data, q);
+    Vector3 sum = Vector3::Zero();
+    for (int b = 0; b < model.num_bodies(); ++b)
+      sum += model.bodies()[b].inertial.mass * (data.X_WB[b] * model.bodies()[b].inertial.com);
+    const Vector3 expected = sum / 6.0;
+    ASSERT_LT((center_of_mass(model, data) - expected).norm(), 1e-12) << "case " << c;
+    ASSERT_LT((center_of_mass_position(model, data) - expected).norm(), 1e-12) << "case " << c;
+    com_jacobian(model, data, J);
+    const double h = 1e-6;
+    for (int d = 0; d < model.num_dofs(); ++d) {
+      Eigen::VectorXd qp = q, qm = q;
+      qp[d] += h;
+      qm[d] -= h;
+      forward_kinematics(model, plus, qp);
+      forward_kinematics(model, minus, qm);
+      const Vector3 fd = (center_of_mass(model, plus) - center_of_mass(model, minus)) / (2 * h);
+      ASSERT_LT((J.col(d) - fd).norm(), 1e-7) << "dof " << d << " case " << c;
+    }
+  }
+}
+
 TEST(Export, ModelWithWeldedBody) {
   // Bodies without a dof (welded to their parent) are legal in a ModelBuilder model.
   const Model original = welded_model();

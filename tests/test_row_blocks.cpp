@@ -17,6 +17,9 @@
 #include "wbm/paper_model.hpp"
 #include "wbm/solver.hpp"
 
+#include "row_blocks.hpp"  // internal (src/)
+#include "unit_row_elimination.hpp"
+
 namespace {
 
 using namespace wbm;
@@ -95,6 +98,42 @@ SolverParameters raw_parameters() {
   s.limit_speeds = false;
   s.nullspace_rate_change_limit = 0.0;
   return s;
+}
+
+// The blocks found from A directly, and whether they are the previous call's: the solver
+// restarts its per-block iteration when they are not (same count, labels and row count).
+TEST(RowBlocks, TheBlocksAndWhetherTheyChangedSinceTheLastCall) {
+  const internal::UnitRowElimination none(6, 8);  // no eliminated rows
+  internal::RowBlocks blocks(8);
+  // Lower triangles, column-major: `coupled` couples every row, `pairs` rows 0-2 and 1-3,
+  // `other_pairs` rows 0-3 and 1-2.
+  const MatrixXd coupled = MatrixXd::Constant(4, 4, 0.5);
+  MatrixXd pairs = MatrixXd::Identity(4, 4), other_pairs = pairs;
+  pairs(2, 0) = pairs(3, 1) = 0.5;
+  other_pairs(3, 0) = other_pairs(2, 1) = 0.5;
+  auto find = [&](const MatrixXd& A, int rows) { return blocks.find(A.data(), A.outerStride(), rows, none); };
+  EXPECT_EQ(find(coupled, 3), 1);
+  EXPECT_FALSE(blocks.unchanged());  // the first call
+  EXPECT_EQ(find(coupled, 3), 1);
+  EXPECT_TRUE(blocks.unchanged());
+  EXPECT_EQ(find(coupled, 4), 1);
+  EXPECT_FALSE(blocks.unchanged()) << "one block, but of four rows, not three";
+  EXPECT_EQ(find(pairs, 4), 2);
+  EXPECT_FALSE(blocks.unchanged());
+  EXPECT_EQ(blocks.block(0), 0);
+  EXPECT_EQ(blocks.block(1), 1);
+  EXPECT_EQ(blocks.block(2), 0);
+  EXPECT_EQ(blocks.block(3), 1);
+  EXPECT_EQ(find(pairs, 4), 2);
+  EXPECT_TRUE(blocks.unchanged());
+  EXPECT_EQ(find(other_pairs, 4), 2);
+  EXPECT_FALSE(blocks.unchanged()) << "two blocks, but other rows in them";
+  EXPECT_EQ(blocks.block(2), 1);
+  EXPECT_EQ(blocks.block(3), 0);
+  EXPECT_EQ(find(coupled, 4), 1);
+  EXPECT_FALSE(blocks.unchanged()) << "one block after two";
+  EXPECT_EQ(find(coupled, 4), 1);
+  EXPECT_TRUE(blocks.unchanged());
 }
 
 // Each block is damped by its own sigma_min: rows of one block share one lambda, which is

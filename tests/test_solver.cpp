@@ -1,7 +1,9 @@
 // Whole-body solver (section IV): identities of the weighted pseudo-inverse and null-space
 // projector, constraints, limits and the 2-dof axis task, as seeded property tests.
 // WBM_PROPERTY_CASES=<n> runs n cases per property instead of 10^4.
+#include <cmath>
 #include <cstdlib>
+#include <limits>
 #include <memory>
 #include <random>
 #include <sstream>
@@ -172,6 +174,60 @@ TEST(Solver, ThreeSolvesKernelsMatchEigen) {
       }
     }
   }
+}
+
+// The small two-lane kernels against plain loops, for every length from 0 to 11: the odd
+// lengths run their tails (the solver calls some with even lengths only, but their contract
+// is any length), and a non-finite entry at any place is found.
+TEST(Solver, SmallKernelsMatchPlainLoops) {
+  std::mt19937_64 rng(38);
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  auto random_vector = [&](int n) { return VectorXd(VectorXd::NullaryExpr(n, [&] { return uniform(rng); })); };
+  const double inf = std::numeric_limits<double>::infinity();
+  for (int c = 0; c < 50; ++c) {
+    for (int n = 0; n < 12; ++n) {
+      const VectorXd a0 = random_vector(n), a1 = random_vector(n), b0 = random_vector(n), b1 = random_vector(n);
+      double four[4], two[2];
+      wbm::internal::four_dot_products(a0.data(), a1.data(), b0.data(), b1.data(), n, four);
+      const double expected_four[4] = {b0.dot(a0), b0.dot(a1), b1.dot(a0), b1.dot(a1)};
+      for (int k = 0; k < 4; ++k) ASSERT_NEAR(four[k], expected_four[k], 1e-14 * (1 + n)) << "n " << n << " sum " << k;
+      wbm::internal::two_dot_products(a0.data(), b0.data(), b1.data(), n, two);
+      ASSERT_NEAR(two[0], b0.dot(a0), 1e-14 * (1 + n)) << "n " << n;
+      ASSERT_NEAR(two[1], b1.dot(a0), 1e-14 * (1 + n)) << "n " << n;
+
+      // Two columns scaled into neighbouring entries of n rows (leading dimension 3; the
+      // third entry of each row stays untouched).
+      const double r0 = uniform(rng), r1 = uniform(rng);
+      MatrixXd out = MatrixXd::Constant(3, std::max(n, 1), std::nan(""));
+      wbm::internal::scaled_transpose_two_columns(a0.data(), a1.data(), r0, r1, n, out.data(), 3);
+      for (int i = 0; i < n; ++i) {
+        ASSERT_EQ(out(0, i), r0 * a0[i]) << "n " << n << " row " << i;
+        ASSERT_EQ(out(1, i), r1 * a1[i]) << "n " << n << " row " << i;
+        ASSERT_TRUE(std::isnan(out(2, i))) << "n " << n << " row " << i;
+      }
+
+      ASSERT_TRUE(wbm::internal::all_finite(a0.data(), n)) << "n " << n;
+      for (int i = 0; i < n; ++i)
+        for (const double bad : {std::nan(""), inf, -inf}) {
+          VectorXd x = a0;
+          x[i] = bad;
+          ASSERT_FALSE(wbm::internal::all_finite(x.data(), n)) << "n " << n << " entry " << i << " " << bad;
+        }
+    }
+    double pair[3] = {0.0, 0.0, 7.0};
+    const double first = uniform(rng), second = uniform(rng);
+    wbm::internal::store_pair(pair, first, second);
+    ASSERT_TRUE(pair[0] == first && pair[1] == second && pair[2] == 7.0);
+  }
+  // The length of a 2 x 2 block's sums: where both pairs of columns still have entries,
+  // rounded up to a multiple of four.
+  const int extent[4] = {5, 9, 2, 0};
+  EXPECT_EQ(wbm::internal::block_extent(extent, 0, 1, 2, 3), 4);  // min(9, 2) = 2 -> 4
+  EXPECT_EQ(wbm::internal::block_extent(extent, 0, 1, 0, 1), 12);  // 9 -> 12
+  EXPECT_EQ(wbm::internal::block_extent(extent, 2, 3, 2, 3), 4);  // 2 -> 4
+  EXPECT_EQ(wbm::internal::block_extent(extent, 3, 3, 3, 3), 0);
+  const int exact[2] = {8, 4};
+  EXPECT_EQ(wbm::internal::block_extent(exact, 0, 0, 1, 1), 4);
 }
 
 /// The per-model properties below run on every shipped model and, through
@@ -432,38 +488,44 @@ double axis_angle(const Model& model, Data& data, const VectorXd& q, int frame, 
 }
 
 TEST_P(EveryModel, AxisJacobianMatchesFiniteDifferencesOfPhiAndAxis) {
+  // Relative to the heel and to the other hand's frame (turned on its body in most models:
+  // the reference's rotation is its body's times the frame's own).
   const wbm_test::ShippedModel& entry = GetParam();
   const Model model = entry.load();
   Data data(model);
-  AxisTask task(model, "axis", entry.left_hand, "heel");
   const int frame = model.frame_index(entry.left_hand);
-  std::mt19937_64 rng(99);
-  MatrixXd J(2, model.num_dofs());
-  VectorXd e(2), rate(2);
-  const int cases = cases_per_model();
-  for (int c = 0; c < cases; ++c) {
-    const VectorXd q = wbm_test::random_configuration(model, rng);
-    forward_kinematics(model, data, q);
-    const Transform X_WH = frame_pose(model, data, model.frame_index("heel"));
-    const Vector3 target_R = wbm_test::random_direction(3, rng);  // in the heel frame
-    task.evaluate(model, data, target_R, Vector3::Zero(), J, e, rate);
-    const Vector3 target_W = X_WH.R * target_R;
-    const double phi = axis_angle(model, data, q, frame, target_W);
-    if (phi < 1e-3 || phi > M_PI - 1e-3) continue;  // degenerate set: tested separately
-    ASSERT_NEAR(e[1], phi, 1e-12);
-    ASSERT_EQ(e[0], 0.0);
-    const VectorXd v = wbm_test::random_direction(model.num_dofs(), rng);
-    const double h = 1e-6;
-    // The heel frame moves with q too: compare phi in the heel frame.
-    auto phi_heel = [&](const VectorXd& qq) {
-      forward_kinematics(model, data, qq);
-      const Transform X = frame_pose(model, data, model.frame_index("heel")).inverse() * frame_pose(model, data, frame);
-      const Vector3 a = X.R.col(2);
-      return std::atan2(a.cross(target_R.normalized()).norm(), a.dot(target_R.normalized()));
-    };
-    const double dphi = (phi_heel(q + h * v) - phi_heel(q - h * v)) / (2 * h);
-    // Rotating about e_y moves a_g towards a_t: d(phi)/dt = -row_y q_dot.
-    ASSERT_NEAR(dphi, -(J.row(1) * v)(0), 1e-6) << entry.id << " case " << c;
+  for (const std::string& reference : {std::string("heel"), entry.right_hand}) {
+    if (reference == entry.left_hand) continue;  // one frame for both hands
+    AxisTask task(model, "axis", entry.left_hand, reference);
+    const int reference_frame = model.frame_index(reference);
+    std::mt19937_64 rng(99);
+    MatrixXd J(2, model.num_dofs());
+    VectorXd e(2), rate(2);
+    const int cases = cases_per_model();
+    for (int c = 0; c < cases; ++c) {
+      const VectorXd q = wbm_test::random_configuration(model, rng);
+      forward_kinematics(model, data, q);
+      const Transform X_WR = frame_pose(model, data, reference_frame);
+      const Vector3 target_R = wbm_test::random_direction(3, rng);  // in the reference frame
+      task.evaluate(model, data, target_R, Vector3::Zero(), J, e, rate);
+      const Vector3 target_W = X_WR.R * target_R;
+      const double phi = axis_angle(model, data, q, frame, target_W);
+      if (phi < 1e-3 || phi > M_PI - 1e-3) continue;  // degenerate set: tested separately
+      ASSERT_NEAR(e[1], phi, 1e-12) << entry.id << " relative to " << reference << ", case " << c;
+      ASSERT_EQ(e[0], 0.0);
+      const VectorXd v = wbm_test::random_direction(model.num_dofs(), rng);
+      const double h = 1e-6;
+      // The reference moves with q too: compare phi in the reference frame.
+      auto phi_relative = [&](const VectorXd& qq) {
+        forward_kinematics(model, data, qq);
+        const Transform X = frame_pose(model, data, reference_frame).inverse() * frame_pose(model, data, frame);
+        const Vector3 a = X.R.col(2);
+        return std::atan2(a.cross(target_R.normalized()).norm(), a.dot(target_R.normalized()));
+      };
+      const double dphi = (phi_relative(q + h * v) - phi_relative(q - h * v)) / (2 * h);
+      // Rotating about e_y moves a_g towards a_t: d(phi)/dt = -row_y q_dot.
+      ASSERT_NEAR(dphi, -(J.row(1) * v)(0), 1e-6) << entry.id << " relative to " << reference << ", case " << c;
+    }
   }
 }
 
@@ -536,6 +598,13 @@ TEST_P(EveryModel, TaskElementJacobiansMatchFiniteDifferencesOfTheirValues) {
   const int n = model.num_dofs();
   std::vector<std::unique_ptr<TaskElement>> elements;
   elements.push_back(std::make_unique<PositionTask>(model, "p", entry.left_hand, "heel"));
+  // Relative to the frame of a body its dof drives with a factor other than 1 (a mimic
+  // joint), where the model has one: the reference's own joint columns count that factor.
+  for (int b = 0; b < model.num_bodies(); ++b)
+    if (model.body(b).dof >= 0 && model.body(b).multiplier != 1.0 && model.find_frame(model.body(b).name) >= 0) {
+      elements.push_back(std::make_unique<PositionTask>(model, "p_mimic", entry.left_hand, model.body(b).name));
+      break;
+    }
   if (model.total_mass() > 0.0) {  // a URDF without masses has no centre of mass
     elements.push_back(std::make_unique<CenterOfMassTask>(model, "c", "heel"));
     elements.push_back(std::make_unique<CenterOfMassTask>(model, "cw"));
@@ -577,9 +646,81 @@ TEST_P(EveryModel, TaskElementJacobiansMatchFiniteDifferencesOfTheirValues) {
           << entry.id << " element " << e->name() << " case " << c << ", value " << x.transpose()
           << "\n  q = " << q.transpose() << "\n  v = " << v.transpose();
       ASSERT_LT(err.norm(), 1e-12) << entry.id << " " << e->name();  // zero error at its own value
+      if (dynamic_cast<AttitudeTask*>(e.get()) == nullptr) {
+        // Vector targets: the error is the target minus the value, the rate the target's.
+        VectorXd delta(e->dim()), target_rate(e->dim());
+        for (int i = 0; i < e->dim(); ++i) {
+          delta[i] = 0.01 * (1 + i) * (c % 2 == 0 ? 1.0 : -1.0);
+          target_rate[i] = 0.3 - 0.1 * i;
+        }
+        value_at(*e, q);
+        e->evaluate(model, data, x + delta, target_rate, J, err, rate);
+        ASSERT_LT((err - delta).norm(), 1e-12) << entry.id << " " << e->name() << " case " << c;
+        ASSERT_TRUE(rate == target_rate) << entry.id << " " << e->name() << " case " << c;
+      }
     }
   }
   EXPECT_LT(attitude_skipped, 20) << entry.id << ": the attitude mostly near gimbal lock";
+}
+
+// The default weights leave out the heel's walking dofs (x, y, yaw: where the robot stands,
+// not a posture) and continuous dofs (no limits to keep away from); a continuous dof keeps
+// no weight even where the user gives it one.
+TEST_P(EveryModel, CriteriaLeaveTheHeelAndContinuousDofsAlone) {
+  const wbm_test::ShippedModel& entry = GetParam();
+  const Model model = entry.load();
+  const int n = model.num_dofs();
+  const VectorXd defaults = default_criterion_weights(model);
+  for (int i = 0; i < n; ++i) {
+    const Dof& d = model.dof(i);
+    const bool left_out = d.continuous || d.role == DofRole::kHeelX || d.role == DofRole::kHeelY ||
+                          d.role == DofRole::kHeelYaw;
+    EXPECT_EQ(defaults[i], left_out ? 0.0 : 1.0) << entry.id << " dof " << d.name;
+  }
+  const JointCenterCriterion center(model, VectorXd::Ones(n));
+  const CubicJointLimitCriterion cubic(model, 0.5, VectorXd::Ones(n));
+  std::mt19937_64 rng(38);
+  VectorXd g_center(n), g_cubic(n);
+  for (int c = 0; c < 20; ++c) {
+    VectorXd q = wbm_test::random_configuration(model, rng);
+    for (int i = 0; i < n; ++i)
+      if (model.dof(i).continuous) q[i] = 3.0 - 0.1 * c;  // far from 0, the continuous dofs' centre
+    center.gradient(q, g_center);
+    cubic.gradient(q, g_cubic);
+    for (int i = 0; i < n; ++i)
+      if (model.dof(i).continuous) {
+        ASSERT_EQ(g_center[i], 0.0) << entry.id << " dof " << model.dof(i).name;
+        ASSERT_EQ(g_cubic[i], 0.0) << entry.id << " dof " << model.dof(i).name;
+      }
+  }
+}
+
+// The heel's walking dofs are left out by their role, not only because the virtual base
+// makes its yaw continuous: a model built by hand with a limited heel yaw keeps it out too.
+TEST(Criteria, ALimitedHeelYawHasNoDefaultWeight) {
+  ModelBuilder builder("limited_heel_yaw");
+  Dof yaw;
+  yaw.name = "heel_yaw";
+  yaw.role = DofRole::kHeelYaw;
+  yaw.lower = -1.0;
+  yaw.upper = 1.0;
+  yaw.max_speed = 1.0;
+  Dof elbow = yaw;
+  elbow.name = "elbow";
+  elbow.role = DofRole::kJoint;
+  Body heel;
+  heel.name = "heel";
+  heel.dof = builder.add_dof(yaw);
+  const int heel_body = builder.add_body(heel);
+  Body arm;
+  arm.name = "arm";
+  arm.parent = heel_body;
+  arm.axis = Vector3::UnitY();
+  arm.dof = builder.add_dof(elbow);
+  builder.add_body(arm);
+  const Model model = builder.build();
+  ASSERT_FALSE(model.dof(0).continuous);
+  EXPECT_EQ(default_criterion_weights(model), Eigen::Vector2d(0.0, 1.0));
 }
 
 TEST_P(EveryModel, CriterionGradientsMatchFiniteDifferencesOfTheirCost) {
@@ -1198,6 +1339,40 @@ TEST(Solver, DampingIsRaisedWhereQdotTurnsBackUnderTheSameCommand) {
 // Error clamping: an element's feedback term gain * e, over its active rows, is scaled to
 // feedback_limit() where its norm exceeds it (direction kept); the errors themselves, and
 // the feed-forward rate, are untouched. A controller sets the limit to the filter's speed.
+// What the stack starts an element with and how it switches one: a direction element's
+// target is the unit z (a zero direction is no target), others zero; switching an element
+// switches all its rows; the rows of an element switched off have zero error, not the last
+// one it had.
+TEST(TaskStack, ElementsStartWithValidTargetsAndSwitchAllTheirRows) {
+  const Model model = make_paper_model();
+  Data data(model);
+  forward_kinematics(model, data, model.home());
+  TaskStack stack(model);
+  add_paper_tasks(model, stack);  // l_hand, l_grasp, r_hand, r_grasp, view
+  const int l_hand = stack.element_index("l_hand"), l_grasp = stack.element_index("l_grasp");
+  const int view = stack.element_index("view");
+  EXPECT_EQ(Vector3(stack.targets().segment<3>(stack.target_offset(l_hand))), Vector3::Zero());
+  EXPECT_EQ(Vector3(stack.targets().segment<3>(stack.target_offset(l_grasp))), Vector3::UnitZ());
+  EXPECT_EQ(Vector3(stack.targets().segment<3>(stack.target_offset(view))), Vector3::UnitZ());
+  EXPECT_TRUE(stack.activation().all());
+  stack.set_element_active(l_hand, false);
+  for (int r = 0; r < 3; ++r) EXPECT_FALSE(stack.activation()[stack.row_offset(l_hand) + r]) << r;
+  EXPECT_FALSE(stack.element_active(l_hand));
+  EXPECT_EQ(stack.activation().count(), stack.num_rows() - 3);
+  stack.set_element_active(l_hand, true);
+  EXPECT_TRUE(stack.activation().all());
+  // Errors: the hand 0.1 m from its target, then switched off.
+  VectorXd x(stack.num_targets());
+  stack.values(model, data, x);
+  stack.targets() = x;
+  stack.targets()[stack.target_offset(l_hand)] += 0.1;
+  stack.assemble(model, data);
+  EXPECT_NEAR(stack.errors()[stack.row_offset(l_hand)], 0.1, 1e-12);
+  stack.set_element_active(l_hand, false);
+  stack.assemble(model, data);
+  EXPECT_EQ(Vector3(stack.errors().segment<3>(stack.row_offset(l_hand))), Vector3::Zero());
+}
+
 TEST(TaskStack, FeedbackTermIsBoundedByTheElementsLimit) {
   const Model model = make_paper_model();
   Data data(model);
@@ -1272,6 +1447,42 @@ TEST(Controller, ConfigurationErrorsThrow) {
   EXPECT_THROW(Controller(model, bad), ConfigError);
   EXPECT_THROW(CubicJointLimitCriterion(model, 1.0), ConfigError);
   EXPECT_THROW(JointCenterCriterion(model, VectorXd::Ones(3)), ConfigError);
+  for (const double bad_weight : {-1e-9, std::nan("")}) {
+    VectorXd weights = VectorXd::Ones(model.num_dofs());
+    weights[12] = bad_weight;
+    EXPECT_THROW(JointCenterCriterion(model, weights), ConfigError) << bad_weight;
+    EXPECT_THROW(CubicJointLimitCriterion(model, 0.5, weights), ConfigError) << bad_weight;
+  }
+  // A row unit is set for a row of the element only.
+  struct TwoRows : TaskElement {
+    explicit TwoRows(int row) : TaskElement("two", 2, 2, TargetKind::kVector) { set_row_unit(row, RowUnit::kAngle); }
+    void value(const Model&, const Data&, Eigen::Ref<Eigen::VectorXd>) override {}
+    void evaluate(const Model&, const Data&, const Eigen::Ref<const Eigen::VectorXd>&,
+                  const Eigen::Ref<const Eigen::VectorXd>&, Eigen::Ref<Eigen::MatrixXd>, Eigen::Ref<Eigen::VectorXd>,
+                  Eigen::Ref<Eigen::VectorXd>) override {}
+  };
+  EXPECT_THROW(TwoRows{2}, ConfigError);
+  EXPECT_THROW(TwoRows{-1}, ConfigError);
+  EXPECT_EQ(TwoRows{1}.row_unit(1), RowUnit::kAngle);
+  // A centre-of-mass task needs mass.
+  ModelBuilder massless("massless");
+  Dof dof;
+  dof.name = "j";
+  dof.lower = -1.0;
+  dof.upper = 1.0;
+  dof.max_speed = 1.0;
+  Body link;
+  link.name = "link";
+  link.dof = massless.add_dof(dof);
+  massless.add_body(link);
+  const Model no_mass = massless.build();
+  try {
+    CenterOfMassTask(no_mass, "com");
+    ADD_FAILURE() << "a centre-of-mass task on a model without mass";
+  } catch (const ModelError& e) {
+    EXPECT_NE(std::string(e.what()).find("centre-of-mass task 'com': the model has no mass"), std::string::npos)
+        << e.what();
+  }
   Controller c(model);
   c.add_task(std::make_unique<PositionTask>(model, "a", "l_hand_ref"));
   EXPECT_THROW(c.add_task(std::make_unique<PositionTask>(model, "a", "r_hand_ref")), ConfigError);
@@ -1301,6 +1512,13 @@ TEST(Controller, BadCommandsHaveDefinedResults) {
   cmd.targets = c.values();
   cmd.targets.segment<3>(3).setZero();
   EXPECT_TRUE(c.update(cmd, 0.001).has(kInvalidTarget));
+  // A NaN at any entry (the last one of a 3-vector too) is found.
+  for (int i = 0; i < cmd.targets.size(); ++i) {
+    cmd.targets = c.values();
+    cmd.targets[i] = std::nan("");
+    EXPECT_TRUE(c.update(cmd, 0.001).has(kInvalidTarget)) << "entry " << i;
+    EXPECT_TRUE(c.q().allFinite()) << "entry " << i;
+  }
   cmd.targets = c.values();
   // Bad dt: nothing moves.
   const VectorXd q1 = c.q();
