@@ -51,7 +51,8 @@ scripts/check_model.sh "$work/massless_xacro.urdf" --hands l_tip,r_tip --fixed-b
   --add-frame l_tip:left_tool:0.05,0,0 --add-frame r_tip:right_tool:0.05,0.01,0:0,0.5,0 \
   --build-dir "$build_dir" >"$work/out_massless.txt" 2>&1 || rc=$?
 [[ $rc -eq 0 ]] || { cat "$work/out_massless.txt"; fail "massless fixed-base robot: exit $rc"; }
-grep -Eq '^1[6-9] passed, [0-9]+ skipped, 0 failed$' "$work/out_massless.txt" || { cat "$work/out_massless.txt"; fail "massless summary"; }
+# (At least the sixteen tests of the first version; the count grows as tests are added.)
+grep -Eq '^(1[6-9]|[2-9][0-9]) passed, [0-9]+ skipped, 0 failed$' "$work/out_massless.txt" || { cat "$work/out_massless.txt"; fail "massless summary"; }
 grep -q '^  passed  KdlComparison.PosesAndJacobiansMatchKdl/user ' "$work/out_massless.txt" ||
   { cat "$work/out_massless.txt"; fail "massless: KDL comparison with the added frames"; }
 grep -q "^note: the model has no mass" "$work/out_massless.txt" || { cat "$work/out_massless.txt"; fail "massless: no note"; }
