@@ -1855,6 +1855,22 @@ TEST(ModelBuilder, FrameParentsHangFromTheirBodyOrTheParentBody) {
   EXPECT_THROW(builder.set_frame_parent(0, -1), wbm::ModelError);
 }
 
+/// The centre of mass's Jacobian by central differences (step 1e-6), a column per dof.
+Eigen::Matrix3Xd com_jacobian_by_differences(const Model& model, const Eigen::VectorXd& q) {
+  Data plus(model), minus(model);
+  Eigen::Matrix3Xd J(3, model.num_dofs());
+  const double h = 1e-6;
+  for (int d = 0; d < model.num_dofs(); ++d) {
+    Eigen::VectorXd qp = q, qm = q;
+    qp[d] += h;
+    qm[d] -= h;
+    forward_kinematics(model, plus, qp);
+    forward_kinematics(model, minus, qm);
+    J.col(d) = (center_of_mass(model, plus) - center_of_mass(model, minus)) / (2 * h);
+  }
+  return J;
+}
+
 // Jacobians of a model with a welded body: its bodies without a dof write no column (a
 // finite sentinel column on each side of J stays untouched; += on NaN would hide a write)
 // and the centre-of-mass Jacobian matches central differences.
@@ -1862,7 +1878,7 @@ TEST(Kinematics, WeldedBodiesHaveNoJacobianColumn) {
   const Model model = welded_model();
   const int nq = model.num_dofs();
   std::mt19937_64 rng(53);
-  Data data(model), plus(model), minus(model);
+  Data data(model);
   Eigen::MatrixXd padded(3, nq + 2);
   for (int c = 0; c < 20; ++c) {
     const Eigen::VectorXd q = wbm_test::random_configuration(model, rng);
@@ -1872,16 +1888,8 @@ TEST(Kinematics, WeldedBodiesHaveNoJacobianColumn) {
     padded.setConstant(sentinel);
     com_jacobian(model, data, padded.middleCols(1, nq));
     ASSERT_TRUE((padded.col(0).array() == sentinel).all() && (padded.col(nq + 1).array() == sentinel).all()) << c;
-    const double h = 1e-6;
-    for (int d = 0; d < nq; ++d) {
-      Eigen::VectorXd qp = q, qm = q;
-      qp[d] += h;
-      qm[d] -= h;
-      forward_kinematics(model, plus, qp);
-      forward_kinematics(model, minus, qm);
-      const Vector3 fd = (center_of_mass(model, plus) - center_of_mass(model, minus)) / (2 * h);
-      ASSERT_LT((padded.col(1 + d) - fd).norm(), 1e-6) << "dof " << d << " case " << c;
-    }
+    const Eigen::Matrix3Xd fd = com_jacobian_by_differences(model, q);
+    for (int d = 0; d < nq; ++d) ASSERT_LT((padded.col(1 + d) - fd.col(d)).norm(), 1e-6) << "dof " << d << " case " << c;
     padded.setConstant(sentinel);
     point_jacobian(model, data, model.num_bodies() - 1, data.X_WB.back().p, padded.middleCols(1, nq));
     ASSERT_TRUE((padded.col(0).array() == sentinel).all() && (padded.col(nq + 1).array() == sentinel).all()) << c;
@@ -1932,7 +1940,7 @@ TEST(Kinematics, TheCentreOfMassSumsEveryBodyOfEveryRoot) {
   ASSERT_EQ(model.total_mass(), 6.0);
 
   std::mt19937_64 rng(38);
-  Data data(model), plus(model), minus(model);
+  Data data(model);
   Eigen::MatrixXd J(3, model.num_dofs());
   for (int c = 0; c < 20; ++c) {
     const Eigen::VectorXd q = wbm_test::random_configuration(model, rng);
@@ -1944,16 +1952,8 @@ TEST(Kinematics, TheCentreOfMassSumsEveryBodyOfEveryRoot) {
     ASSERT_LT((center_of_mass(model, data) - expected).norm(), 1e-12) << "case " << c;
     ASSERT_LT((center_of_mass_position(model, data) - expected).norm(), 1e-12) << "case " << c;
     com_jacobian(model, data, J);
-    const double h = 1e-6;
-    for (int d = 0; d < model.num_dofs(); ++d) {
-      Eigen::VectorXd qp = q, qm = q;
-      qp[d] += h;
-      qm[d] -= h;
-      forward_kinematics(model, plus, qp);
-      forward_kinematics(model, minus, qm);
-      const Vector3 fd = (center_of_mass(model, plus) - center_of_mass(model, minus)) / (2 * h);
-      ASSERT_LT((J.col(d) - fd).norm(), 1e-7) << "dof " << d << " case " << c;
-    }
+    const Eigen::Matrix3Xd fd = com_jacobian_by_differences(model, q);
+    for (int d = 0; d < model.num_dofs(); ++d) ASSERT_LT((J.col(d) - fd.col(d)).norm(), 1e-7) << "dof " << d << " case " << c;
   }
 }
 
