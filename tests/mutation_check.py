@@ -15,7 +15,7 @@ stopping at the first failure. Prints a line per case, KILLED (with the first fa
 or SURVIVED, and exits 1 if any case survived or a case no longer applies (its text not
 found exactly once: update the case with the code). About 8 s per case of src/ and 15-30 s
 per case of apps/ on a 2-core machine after a build of 3-4 minutes (about two hours
-for the 505); not a CTest for that reason.
+for the 545); not a CTest for that reason.
 
 The first 123 cases (src/, 24 files) were written in the thirty-fifth session. Their first
 runs found nine that no test caught, not even the longer CTests (random scenarios and the
@@ -69,8 +69,17 @@ entry, the blocks' "unchanged" across a row count, the centre-of-mass error's si
 relative to a turned reference or a mimic chain, continuous and heel dofs in the criteria,
 a changed cycle time, a fresh filter's value, opposite directions along an axis, a start
 faster than the speed limit, unit length over long runs, the stack's defaults and
-switching. Of a further 105, 68 were killed at once and kept; 37 survived and are not in
-this list yet (the session ended first): the issue's note names them, to be tested next.
+switching. Of a further 105, 68 were killed at once and kept; 37 survived, each tested since
+the thirty-ninth session and listed with four twins (the other side of a bound, the other
+row of the axis): the solver's parameter checks, its first estimate after a row count change
+(three inverse-iteration steps), the no-row, overdetermined and all-frozen paths, a braked
+dof's parts, a dof the user freezes (not one frozen at its limit), the speed-scaled flag,
+the raised damping's triggers (a growing alternation, a turn-back from 1 % of the speed
+limit), the integration's rounding tolerance; the controller's centre-of-mass update, the
+criterion's gradient, its parameter check before reset(), the external velocity's size and
+values and the rest after a cycle that computed nothing; the support polygon's distance
+(inside, beyond a corner), the balance module's ranges, flags and disable(); the axis's
+x row and its mimic factor, the Kardan rates and the gimbal-lock floor.
 Standard library only.
 """
 import argparse
@@ -1672,6 +1681,129 @@ CASES = [
     ('att_rotation_z', 'src/tasks/attitude_task.cpp',
      'Eigen::AngleAxisd(angles.z(), Vector3::UnitZ()))',
      'Eigen::AngleAxisd(-angles.z(), Vector3::UnitZ()))'),
+    # The thirty-eighth session's 37 survivors, each with a test since the thirty-ninth
+    # (tests/test_solver_rules.cpp, the Balance tests, the axis rows and the Kardan rates),
+    # and four twins of them (the other side of a bound, the other row).
+    ('sv_check_gain', 'src/solver.cpp',
+     'if (!positive(p.nullspace_gain)) throw',
+     'if (false) throw'),
+    ('sv_check_threshold', 'src/solver.cpp',
+     'std::isfinite(p.singular_threshold) && p.singular_threshold > 0.0',
+     'p.singular_threshold >= 0.0'),
+    ('sv_check_rate_change', 'src/solver.cpp',
+     '  if (!positive(p.nullspace_rate_change_limit))\n',
+     '  if (false)\n'),
+    ('sv_max_rows', 'src/solver.cpp',
+     'if (max_rows < 0) throw',
+     'if (max_rows < -1) throw'),
+    ('sv_restart_steps', 'src/solver.cpp',
+     '    previous_rows_ = m;\n    steps = 3;',
+     '    previous_rows_ = m;\n    steps = 1;'),
+    ('sv_blocks_no_estimate', 'src/solver.cpp',
+     '      if (!(lambda[b] >= 0.0)) lambda[b] = 0.0;  // no estimate (overflow): as singular\n',
+     ''),
+    ('sv_overdetermined', 'src/solver.cpp',
+     'if (m > nf) flags |= kOverdetermined;',
+     'if (m >= nf) flags |= kOverdetermined;'),
+    ('sv_no_rows_null_sign', 'src/solver.cpp',
+     'out_.qdot_null = -parameters_.nullspace_gain * g_;',
+     'out_.qdot_null = parameters_.nullspace_gain * g_;'),
+    ('sv_no_rows_sigma', 'src/solver.cpp',
+     '    out_.min_singular_value = std::numeric_limits<double>::infinity();\n    return flags;',
+     '    return flags;'),
+    ('sv_q_size', 'src/solver.cpp',
+     '(q != nullptr && q->size() != n)',
+     'false'),
+    ('sv_all_frozen_parts', 'src/solver.cpp',
+     '      status.flags |= flags;\n      out_.qdot_task.setZero();\n      out_.qdot_null.setZero();\n',
+     '      status.flags |= flags;\n'),
+    ('sv_frozen_by_user', 'src/solver.cpp',
+     'const bool frozen = free_dofs[i] && !free_[i];',
+     'const bool frozen = !free_[i];'),
+    ('sv_null_scaled_flag', 'src/solver.cpp',
+     '    if (s < 1.0) status.flags |= kNullSpaceSpeedScaled;\n',
+     ''),
+    ('sv_brake_parts', 'src/solver.cpp',
+     '      out_.qdot_task[i] *= f;\n      out_.qdot_null[i] *= f;\n',
+     ''),
+    ('sv_alternating_growth', 'src/solver.cpp',
+     'visible && change2 > previous2 && turn',
+     'visible && turn'),
+    ('sv_alternations_count', 'src/solver.cpp',
+     'alternations_ >= kAlternations)',
+     'alternations_ >= kAlternations + 1)'),
+    ('sv_noticeable', 'src/solver.cpp',
+     'std::abs(change) > 0.01 * model_.max_speeds()[i];',
+     'std::abs(change) > 0.1 * model_.max_speeds()[i];'),
+    ('sv_noticeable_low', 'src/solver.cpp',
+     'std::abs(change) > 0.01 * model_.max_speeds()[i];',
+     'std::abs(change) > 0.001 * model_.max_speeds()[i];'),
+    ('sv_clamp_rounding', 'src/solver.cpp',
+     'if (clamped != x && std::abs(x - clamped) > 4.0 * std::numeric_limits<double>::epsilon() * (1.0 + std::abs(clamped)))',
+     'if (clamped != x)'),
+    ('sv_clamp_tolerance', 'src/solver.cpp',
+     '> 4.0 * std::numeric_limits<double>::epsilon() * (1.0 + std::abs(clamped)))',
+     '> 4e6 * std::numeric_limits<double>::epsilon() * (1.0 + std::abs(clamped)))'),
+    ('ctl_needs_com', 'src/controller.cpp',
+     'needs_center_of_mass_ = needs_center_of_mass_ || element->needs_center_of_mass();',
+     'needs_center_of_mass_ = element->needs_center_of_mass();'),
+    ('ctl_null_criterion', 'src/controller.cpp',
+     '  criterion_->gradient(q_, gradient_);\n',
+     ''),
+    ('ctl_set_parameters_check', 'src/controller.cpp',
+     '  WholeBodySolver check(model_, 0, parameters);\n  solver_parameters_ = parameters;',
+     '  solver_parameters_ = parameters;'),
+    ('ctl_external_size', 'src/controller.cpp',
+     '(command.external_velocity.size() != 0 && command.external_velocity.size() != model_.num_dofs())',
+     'false'),
+    ('ctl_external_finite', 'src/controller.cpp',
+     '      !command.external_velocity.allFinite()) {',
+     '      false) {'),
+    ('ctl_invalid_stops', 'src/controller.cpp',
+     '    status.flags |= kInvalidCommand;\n    qdot_.setZero();\n',
+     '    status.flags |= kInvalidCommand;\n'),
+    ('ctl_failed_solve_stops', 'src/controller.cpp',
+     '  if (!solved.ok()) {\n    qdot_.setZero();\n',
+     '  if (!solved.ok()) {\n'),
+    ('bal_inside_side', 'src/balance.cpp',
+     'if (side < 0.0) is_inside = false;',
+     'if (side < -0.01) is_inside = false;'),
+    ('bal_segment_clamp', 'src/balance.cpp',
+     'const double t = std::clamp((p - a).dot(e) / (len * len), 0.0, 1.0);',
+     'const double t = (p - a).dot(e) / (len * len);'),
+    ('bal_margin_finite', 'src/balance.cpp',
+     'std::isfinite(margin) && margin >= 0.0',
+     'margin >= 0.0'),
+    ('bal_virtual_dofs', 'src/balance.cpp',
+     'if (ub_x_ < 0 || ub_y_ < 0 || heel_body_ < 0)',
+     'if (ub_x_ < 0 || heel_body_ < 0)'),
+    ('bal_feet_spacing', 'src/balance.cpp',
+     ' && feet.spacing >= 0.0))',
+     '))'),
+    ('bal_disable_external', 'src/balance.cpp',
+     '  if (command.external_velocity.size() != 0) {\n    command.external_velocity[ub_x_] = 0.0;\n    command.external_velocity[ub_y_] = 0.0;\n  }\n}',
+     '}'),
+    ('bal_outside_flag', 'src/balance.cpp',
+     '  if (last_margin_ < 0.0) flags |= kComOutside;\n',
+     ''),
+    ('bal_saturated_flag', 'src/balance.cpp',
+     '  if (scale < 1.0) flags |= kShiftSaturated;\n',
+     ''),
+    ('ax_sl_x', 'src/tasks/axis_task.cpp',
+     'x = y.cross(z);',
+     'x = z.cross(y);'),
+    ('ax_multiplier', 'src/tasks/axis_task.cpp',
+     'col[0] += B.multiplier * (p00',
+     'col[0] += (p00'),
+    ('ax_multiplier_y', 'src/tasks/axis_task.cpp',
+     'col[1] += B.multiplier * (p10',
+     'col[1] += (p10'),
+    ('att_gimbal_floor', 'src/tasks/attitude_task.cpp',
+     '  if (std::abs(cb) < 1e-3) cb = std::copysign(1e-3, cb);\n',
+     ''),
+    ('att_rate_matrix', 'src/tasks/attitude_task.cpp',
+     'E << 1.0, 0.0, sb, 0.0, ca, -sa * cb, 0.0, sa, ca * cb;',
+     'E << 1.0, 0.0, sb, 0.0, ca, sa * cb, 0.0, sa, ca * cb;'),
 ]
 
 def run(command, cwd, timeout=None):

@@ -433,6 +433,136 @@ TEST(Balance, SupportPolygonIsTheHullOfTheFeetCorners) {
   }
 }
 
+// The signed distance on random support polygons (seeded) against a plain computation: the
+// distance to the nearest point of the boundary's segments, positive where the point lies on
+// the inner side of every edge. Points near an edge (a millimetre either side) and beyond a
+// corner (where the nearest point is the corner, not the edge's line) are drawn too.
+TEST(Balance, SignedDistanceIsTheDistanceToTheBoundary) {
+  std::mt19937_64 rng(23);
+  std::uniform_real_distribution<double> position(-0.4, 0.4), angle(-M_PI, M_PI), size(0.05, 0.3), unit(0.0, 1.0);
+  for (int trial = 0; trial < 5000; ++trial) {
+    FootGeometry g;
+    g.length = size(rng);
+    g.width = size(rng);
+    std::vector<FootPose> feet(1 + trial % SupportPolygon::kMaxFeet);
+    for (FootPose& f : feet) f = {Vector2(position(rng), position(rng)), angle(rng)};
+    const SupportPolygon poly = SupportPolygon::from_feet(feet, g);
+    const auto v = poly.vertices();
+    const size_t nv = v.size();
+    auto plain = [&](const Vector2& p) {
+      double nearest = std::numeric_limits<double>::infinity();
+      bool inside = true;
+      for (size_t i = 0; i < nv; ++i) {
+        const Vector2 a = v[i], e = v[(i + 1) % nv] - a;
+        inside = inside && e.x() * (p.y() - a.y()) - e.y() * (p.x() - a.x()) >= 0.0;
+        const double t = std::clamp((p - a).dot(e) / e.squaredNorm(), 0.0, 1.0);
+        nearest = std::min(nearest, (a + t * e - p).norm());
+      }
+      return inside ? nearest : -nearest;
+    };
+    std::vector<Vector2> points;
+    for (int k = 0; k < 4; ++k) points.push_back(Vector2(position(rng), position(rng)));
+    const size_t i = trial % nv;
+    const Vector2 a = v[i], e = v[(i + 1) % nv] - a;
+    const Vector2 inward = Vector2(-e.y(), e.x()).normalized();
+    for (const double d : {1e-3, -1e-3}) points.push_back(a + unit(rng) * e + d * inward);
+    // Beyond the corner a, outside both edges that meet there.
+    const Vector2 previous = a - v[(i + nv - 1) % nv];
+    const Vector2 out = -(inward + Vector2(-previous.y(), previous.x()).normalized()).normalized();
+    points.push_back(a + 0.05 * out);
+    for (const Vector2& p : points)
+      ASSERT_NEAR(poly.signed_distance(p), plain(p), 1e-12)
+          << "trial " << trial << ", point " << p.transpose() << ", " << nv << " vertices";
+    ASSERT_LT(poly.signed_distance(a + 0.05 * out), -0.049) << "trial " << trial << ": the corner's distance";
+  }
+}
+
+TEST(Balance, ParametersOutsideTheirRangesThrow) {
+  const double nan = std::nan(""), inf = std::numeric_limits<double>::infinity();
+  for (const double margin : {-0.01, nan, inf}) EXPECT_THROW(CenterOfMassCentering(4.0, margin), ConfigError) << margin;
+  for (const double gain : {0.0, -1.0, nan, inf}) EXPECT_THROW(CenterOfMassCentering(gain, 0.0), ConfigError) << gain;
+  EXPECT_NO_THROW(CenterOfMassCentering(4.0, 0.0));
+  const Model model = make_paper_model();
+  auto law = [] { return std::make_unique<CenterOfMassCentering>(4.0, 0.0); };
+  for (const auto& [field, value] : std::vector<std::pair<std::string, double>>{
+           {"length", 0.0}, {"length", nan}, {"width", -0.1}, {"width", nan}, {"spacing", -1e-3}, {"spacing", nan}}) {
+    FootGeometry feet;
+    (field == "length" ? feet.length : field == "width" ? feet.width : feet.spacing) = value;
+    EXPECT_THROW(BalanceModule(model, law(), feet), ConfigError) << field << " " << value;
+  }
+  FootGeometry together;
+  together.spacing = 0.0;  // feet side by side without a gap
+  EXPECT_NO_THROW(BalanceModule(model, law(), together));
+  EXPECT_THROW(BalanceModule(model, nullptr), ConfigError);
+  // A model needs the heel and both upper-body shift dofs.
+  for (int missing = 0; missing < 3; ++missing) {
+    ModelBuilder builder("partial");
+    for (const char* name : {"a", "b", "c"}) {
+      Dof dof;
+      dof.name = name;
+      dof.lower = -1.0;
+      dof.upper = 1.0;
+      dof.max_speed = 1.0;
+      Body body;
+      body.name = std::string("link_") + name;
+      body.dof = builder.add_dof(dof);
+      body.parent = builder.num_bodies() - 1;
+      builder.add_body(body);
+    }
+    VirtualDofs v;
+    v.heel_body = missing == 0 ? -1 : 0;
+    v.ub_x = missing == 1 ? -1 : 1;
+    v.ub_y = missing == 2 ? -1 : 2;
+    builder.set_virtual_dofs(v);
+    const Model partial = builder.build();
+    try {
+      BalanceModule balance(partial, law());
+      ADD_FAILURE() << "accepted a model without " << (missing == 0 ? "heel" : missing == 1 ? "ub_x" : "ub_y");
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("has no virtual heel and upper-body x/y dofs"), std::string::npos) << e.what();
+    }
+  }
+}
+
+// What the module writes and flags: the centre of mass outside the feet is flagged, a law
+// faster than the shift dofs is scaled to their speed limit (direction kept) and flagged,
+// and disable() hands the dofs back with no external velocity left on them.
+TEST(Balance, TheFlagsAndTheCommandSayWhatTheShiftDid) {
+  const Model model = make_paper_model();
+  const int ub_x = model.virtual_dofs().ub_x, ub_y = model.virtual_dofs().ub_y;
+  Controller c(model);
+  c.add_task(std::make_unique<PositionTask>(model, "l_hand", "l_hand_ref"));
+  c.reset(model.home());
+  Command cmd = c.make_command();
+  cmd.external_velocity = VectorXd::Zero(model.num_dofs());
+  const Vector2 com = center_of_mass_position(model, c.data()).head<2>();
+  const FootGeometry feet;
+  // The feet under the centre of mass (its heel edge 5 cm behind it): inside, a slow pull.
+  BalanceModule slow(model, std::make_unique<CenterOfMassCentering>(0.5, 0.0));
+  std::uint32_t flags = slow.update(c.data(), SupportPolygon::standing(com - Vector2(0.05, 0.0), 0.0, feet), 0.001, cmd);
+  EXPECT_EQ(flags, kBalanceOk);
+  EXPECT_GT(slow.last_margin(), 0.0);
+  EXPECT_GT(cmd.external_velocity[ub_x], 0.0);
+  EXPECT_LT(cmd.external_velocity[ub_x], model.dof(ub_x).max_speed);
+  // The feet 30 cm ahead and 10 cm to the left: outside, and a fast law saturates.
+  BalanceModule fast(model, std::make_unique<CenterOfMassCentering>(50.0, 0.0));
+  const SupportPolygon ahead = SupportPolygon::standing(com + Vector2(0.3, 0.1), 0.0, feet);
+  flags = fast.update(c.data(), ahead, 0.001, cmd);
+  EXPECT_TRUE(flags & kComOutside);
+  EXPECT_TRUE(flags & kShiftSaturated);
+  EXPECT_LT(fast.last_margin(), -0.2);
+  const Vector2 shift(cmd.external_velocity[ub_x], cmd.external_velocity[ub_y]);
+  const Vector2 pull = ahead.centroid() - com;
+  EXPECT_NEAR(std::max(std::abs(shift.x()) / model.dof(ub_x).max_speed, std::abs(shift.y()) / model.dof(ub_y).max_speed),
+              1.0, 1e-12);
+  EXPECT_NEAR(shift.normalized().dot(pull.normalized()), 1.0, 1e-12);
+  EXPECT_FALSE(cmd.free_dofs[ub_x] || cmd.free_dofs[ub_y]);
+  fast.disable(cmd);
+  EXPECT_TRUE(cmd.free_dofs[ub_x] && cmd.free_dofs[ub_y]);
+  EXPECT_EQ(cmd.external_velocity[ub_x], 0.0);
+  EXPECT_EQ(cmd.external_velocity[ub_y], 0.0);
+}
+
 const Eigen::VectorXd& final_walking(const ScenarioRun& r) { return r.walking.back(); }
 int walks(const ScenarioRun& r) {
   int n = 0;

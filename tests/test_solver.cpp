@@ -487,6 +487,34 @@ double axis_angle(const Model& model, Data& data, const VectorXd& q, int frame, 
   return std::atan2(a.cross(target.normalized()).norm(), a.dot(target.normalized()));
 }
 
+/// Both rows of an axis element (J, evaluated at q for the target a_t given in the reference
+/// frame) are the relative angular velocity w along the sl-frame's x and y (a right-handed
+/// frame, z the axis a_g): a_g moves as w x a_g, so that its change along y_sl is -row_x v
+/// and along x_sl row_y v, by central differences of a_g along v.
+testing::AssertionResult axis_rows_match_differences(const Model& model, Data& data, const MatrixXd& J, int frame,
+                                                     int reference_frame, const VectorXd& q, const Vector3& target_R,
+                                                     const VectorXd& v) {
+  auto axis_relative = [&](const VectorXd& qq) {
+    forward_kinematics(model, data, qq);
+    const Transform X_WR = reference_frame >= 0 ? frame_pose(model, data, reference_frame) : Transform();
+    return Vector3((X_WR.inverse() * frame_pose(model, data, frame)).R.col(2));
+  };
+  const Vector3 a_R = axis_relative(q);
+  double phi = 0.0;
+  const Matrix3 R_sl = AxisTask::sl_frame(a_R, target_R, Vector3::UnitY(), &phi);
+  if (std::abs(R_sl.determinant() - 1.0) > 1e-12 || (R_sl.transpose() * R_sl - Matrix3::Identity()).norm() > 1e-12 ||
+      (R_sl.col(2) - a_R).norm() > 1e-12)
+    return testing::AssertionFailure() << "the sl-frame is no right-handed frame about the axis:\n" << R_sl;
+  const double h = 1e-6;
+  const Vector3 da = (axis_relative(q + h * v) - axis_relative(q - h * v)) / (2 * h);
+  forward_kinematics(model, data, q);
+  const double row_x = (J.row(0) * v)(0), row_y = (J.row(1) * v)(0);
+  if (std::abs(da.dot(R_sl.col(1)) + row_x) > 1e-6 || std::abs(da.dot(R_sl.col(0)) - row_y) > 1e-6)
+    return testing::AssertionFailure() << "rows x, y give " << row_x << ", " << row_y << "; differences "
+                                       << -da.dot(R_sl.col(1)) << ", " << da.dot(R_sl.col(0));
+  return testing::AssertionSuccess();
+}
+
 TEST_P(EveryModel, AxisJacobianMatchesFiniteDifferencesOfPhiAndAxis) {
   // Relative to the heel and to the other hand's frame (turned on its body in most models:
   // the reference's rotation is its body's times the frame's own).
@@ -525,7 +553,59 @@ TEST_P(EveryModel, AxisJacobianMatchesFiniteDifferencesOfPhiAndAxis) {
       const double dphi = (phi_relative(q + h * v) - phi_relative(q - h * v)) / (2 * h);
       // Rotating about e_y moves a_g towards a_t: d(phi)/dt = -row_y q_dot.
       ASSERT_NEAR(dphi, -(J.row(1) * v)(0), 1e-6) << entry.id << " relative to " << reference << ", case " << c;
+      ASSERT_TRUE(axis_rows_match_differences(model, data, J, frame, reference_frame, q, target_R, v))
+          << entry.id << " relative to " << reference << ", case " << c;
     }
+  }
+}
+
+// Rows of an axis on a chain with a mimic joint (a body driven by another's dof with a
+// factor of -1.7 and an offset): that dof's columns count the factor in both rows.
+TEST(AxisTask, RowsCountAMimicJointsFactor) {
+  ModelBuilder builder("mimic_axis");
+  Dof dof;
+  dof.lower = -2.0;
+  dof.upper = 2.0;
+  dof.max_speed = 1.0;
+  dof.name = "a";
+  const int a = builder.add_dof(dof);
+  dof.name = "b";
+  const int b = builder.add_dof(dof);
+  Body first;
+  first.name = "first";
+  first.dof = a;
+  builder.add_body(first);
+  Body coupled;  // turns by -1.7 a + 0.2 about y, above the first
+  coupled.name = "coupled";
+  coupled.parent = 0;
+  coupled.X_PJ.p = {0.0, 0.0, 0.3};
+  coupled.axis = Vector3::UnitY();
+  coupled.dof = a;
+  coupled.multiplier = -1.7;
+  coupled.offset = 0.2;
+  builder.add_body(coupled);
+  Body last;
+  last.name = "last";
+  last.parent = 1;
+  last.X_PJ.p = {0.1, 0.0, 0.2};
+  last.axis = Vector3::UnitX();
+  last.dof = b;
+  builder.add_body(last);
+  const Model model = builder.build();
+  Data data(model);
+  AxisTask task(model, "axis", "last");
+  std::mt19937_64 rng(61);
+  MatrixXd J(2, 2);
+  VectorXd e(2), rate(2);
+  for (int c = 0; c < 200; ++c) {
+    const VectorXd q = wbm_test::random_configuration(model, rng);
+    const Vector3 target = wbm_test::random_direction(3, rng);
+    forward_kinematics(model, data, q);
+    task.evaluate(model, data, target, Vector3::Zero(), J, e, rate);
+    if (e[1] < 1e-3 || e[1] > M_PI - 1e-3) continue;
+    ASSERT_TRUE(axis_rows_match_differences(model, data, J, model.frame_index("last"), -1, q, target,
+                                            wbm_test::random_direction(2, rng)))
+        << "case " << c;
   }
 }
 
@@ -859,6 +939,65 @@ TEST(AttitudeTask, ErrorIsTheRotationToTheTargetWithAllRowsAndTheAngleWithOne) {
       stack.target_rates().setZero();
       ASSERT_EQ(stack.assemble(model, data), 1);
       ASSERT_NEAR(stack.errors()[row], std::remainder(canonical[row] - angles[row], 2 * M_PI), 1e-12) << "row " << row;
+    }
+  }
+}
+
+// E(angles) maps the rates of the Kardan angles to the world angular velocity of
+// R = Rx(a) Ry(b) Rz(c): w = vee(dR/dt R^T), by central differences on random angles and rates.
+TEST(AttitudeTask, TheKardanRateMatrixMapsAngleRatesToTheAngularVelocity) {
+  std::mt19937_64 rng(53);
+  std::uniform_real_distribution<double> angle(-M_PI, M_PI);
+  for (int c = 0; c < 2000; ++c) {
+    const Vector3 angles(angle(rng), angle(rng), angle(rng)), rates(angle(rng), angle(rng), angle(rng));
+    const double h = 1e-6;
+    const Matrix3 dR = (AttitudeTask::kardan_rotation(angles + h * rates) - AttitudeTask::kardan_rotation(angles - h * rates)) / (2 * h);
+    const Matrix3 W = dR * AttitudeTask::kardan_rotation(angles).transpose();
+    const Vector3 w(W(2, 1), W(0, 2), W(1, 0));
+    ASSERT_LT((AttitudeTask::kardan_rate_matrix(angles) * rates - w).norm(), 1e-8 * (1.0 + w.norm()))
+        << "case " << c << ", angles " << angles.transpose() << ", rates " << rates.transpose();
+  }
+}
+
+// At pitch +-90 degrees the Kardan angles cannot follow a turn about the axis that E lacks
+// there (gimbal lock): the rows E^-1 J_R grow as 1 / cos(pitch). With |cos(pitch)| floored
+// at 1e-3 they stay below about 1e3 (a joint about world z, above joints about x, y and z
+// that are the angles themselves, turns about that axis), finite at the exact lock too.
+TEST(AttitudeTask, RowsStayBoundedAtGimbalLock) {
+  ModelBuilder builder("gimbal");
+  const Vector3 axes[4] = {Vector3::UnitZ(), Vector3::UnitX(), Vector3::UnitY(), Vector3::UnitZ()};
+  const char* joints[4] = {"j0", "j1", "j2", "j3"};
+  const char* links[4] = {"link0", "link1", "link2", "link3"};
+  for (int k = 0; k < 4; ++k) {
+    Dof dof;
+    dof.name = joints[k];
+    dof.lower = -4.0;
+    dof.upper = 4.0;
+    dof.max_speed = 1.0;
+    Body body;
+    body.name = links[k];
+    body.parent = k - 1;
+    body.axis = axes[k];
+    body.dof = builder.add_dof(dof);
+    builder.add_body(body);
+  }
+  const Model model = builder.build();
+  Data data(model);
+  AttitudeTask task(model, "a", "link3");
+  MatrixXd J(3, 4);
+  VectorXd e(3), r(3), angles(3);
+  for (const double off : {1e-6, -1e-6, 1e-9, 0.0, 0.1}) {
+    const Eigen::Vector4d q(0.0, 0.3, M_PI / 2 - off, -0.4);
+    forward_kinematics(model, data, q);
+    task.value(model, data, angles);
+    task.evaluate(model, data, angles, Vector3::Zero(), J, e, r);
+    ASSERT_TRUE(J.allFinite()) << off;
+    const double largest = J.cwiseAbs().maxCoeff();
+    if (off == 0.1) {
+      EXPECT_LT(largest, 20.0);
+    } else {
+      EXPECT_LE(largest, 1.001e3) << "pitch pi/2 - " << off;
+      EXPECT_GE(largest, 0.9e3) << "pitch pi/2 - " << off;
     }
   }
 }
