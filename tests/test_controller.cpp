@@ -3,11 +3,13 @@
 // (section III).
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <iostream>
 #include <limits>
 #include <memory>
 #include <random>
 #include <sstream>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -259,6 +261,112 @@ TEST(Walking, EitherJointLimitFlagTriggersAWalk) {
       EXPECT_EQ(triggered, trigger_on && limit_flags != 0) << "trigger_on_joint_limit " << trigger_on << ", flags "
                                                             << limit_flags;
     }
+}
+
+// The walking module's parameters outside their ranges, and a model without the three heel
+// dofs, are configuration errors that name what is wrong.
+TEST(Walking, ParametersOutsideTheirRangesThrow) {
+  const Model model = make_paper_model();
+  const FootGeometry feet;
+  const double nan = std::nan(""), inf = std::numeric_limits<double>::infinity();
+  struct Bad {
+    std::function<void(WalkingParameters&)> change;
+    std::string expected;
+  };
+  const std::string positive = "walking: step limits, durations, tolerances and counts must be positive";
+  const std::vector<Bad> bad = {
+      {[](WalkingParameters& p) { p.max_steps = 0; }, positive},
+      {[](WalkingParameters& p) { p.max_walks = 0; }, positive},
+      {[](WalkingParameters& p) { p.max_step_turn = 0.0; }, positive},
+      {[](WalkingParameters& p) { p.step_duration = 0.0; }, positive},
+      {[](WalkingParameters& p) { p.feet_tolerance = 0.0; }, positive},
+      {[&](WalkingParameters& p) { p.position_tolerance = inf; },
+       "walking: position_tolerance must be finite and > 0 [m], got inf"},
+      {[&](WalkingParameters& p) { p.angle_tolerance = nan; },
+       "walking: angle_tolerance must be finite and > 0 [rad], got nan"},
+      {[](WalkingParameters& p) { p.min_step_width = p.max_step_width = 0.18; },
+       "walking: max_step_width (0.18 m) must be above min_step_width (0.18 m)"},
+      {[&](WalkingParameters& p) { p.heel_stop_time = nan; }, "walking: heel_stop_time must be finite"},
+      {[&](WalkingParameters& p) { p.heel_stop_time = inf; }, "walking: heel_stop_time must be finite"},
+  };
+  for (const Bad& b : bad) {
+    WalkingParameters p = scaled_walking_parameters(model, feet);
+    b.change(p);
+    try {
+      WalkingModule walking(model, feet, p);
+      ADD_FAILURE() << "accepted; wanted: " << b.expected;
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find(b.expected), std::string::npos) << e.what();
+    }
+  }
+  // A model with the heel's x but not its y or yaw.
+  for (int missing = 0; missing < 2; ++missing) {
+    ModelBuilder builder("partial_heel");
+    for (const char* name : {"x", "y", "yaw"}) {
+      Dof dof;
+      dof.name = name;
+      dof.lower = -1.0;
+      dof.upper = 1.0;
+      dof.max_speed = 1.0;
+      Body body;
+      body.name = name;
+      body.parent = builder.num_bodies() - 1;
+      body.dof = builder.add_dof(dof);
+      builder.add_body(body);
+    }
+    VirtualDofs v;
+    v.heel_x = 0;
+    v.heel_y = missing == 0 ? -1 : 1;
+    v.heel_yaw = missing == 1 ? -1 : 2;
+    builder.set_virtual_dofs(v);
+    const Model partial = builder.build();
+    try {
+      WalkingModule walking(partial, feet);
+      ADD_FAILURE() << "accepted a model without heel " << (missing == 0 ? "y" : "yaw");
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("walking: model 'partial_heel' has no virtual heel dofs"), std::string::npos)
+          << e.what();
+    }
+  }
+}
+
+// The null-space cost triggers a walk above its threshold only, and never with the
+// threshold at zero (off), however large the cost: here the left elbow stands 0.1 rad from
+// its limit (in the criterion's band) and the hand's target lies 20 tolerances ahead, the
+// other triggers off. A walk under way refuses stand_at().
+TEST(Walking, TheCostTriggersAWalkAboveItsThresholdOnly) {
+  const Model model = make_paper_model();
+  Controller c(model);
+  c.add_task(std::make_unique<PositionTask>(model, "l_hand", "l_hand_ref"), {3.0, 0.4, 2});
+  VectorXd q = model.home();
+  const int elbow = model.dof_index("l_elbow");
+  q[elbow] = model.dof(elbow).upper - 0.1;
+  c.reset(q);
+  const double cost = c.nullspace_cost();
+  ASSERT_GT(cost, 0.0);
+  const FootGeometry feet;
+  WalkingParameters parameters = scaled_walking_parameters(model, feet);
+  parameters.stall_time = 0.0;
+  parameters.trigger_on_joint_limit = false;
+  const double dt = 0.002;
+  for (const double threshold : {0.0, -1.0, 2.0 * cost, 0.5 * cost}) {
+    parameters.cost_threshold = threshold;
+    WalkingModule walking(model, feet, parameters);
+    Command cmd = c.make_command();
+    cmd.targets[0] += 0.1;  // 0.1 m ahead: 20 tolerances
+    bool triggered = false;
+    for (int k = 0; k < 100 && !triggered; ++k)  // 0.2 s: four trigger times
+      triggered = (walking.update(c, ControllerStatus{}, k * dt, dt, cmd) & kWalkTriggered) != 0;
+    EXPECT_EQ(triggered, threshold == 0.5 * cost) << "cost " << cost << ", threshold " << threshold;
+    if (triggered) {
+      try {
+        walking.stand_at(c.q());
+        ADD_FAILURE() << "stand_at() during a walk";
+      } catch (const ConfigError& e) {
+        EXPECT_NE(std::string(e.what()).find("walking: stand_at: a walk is under way"), std::string::npos) << e.what();
+      }
+    }
+  }
 }
 
 // Walking's error counts the rows the stack had on in the last cycle (the errors it reads

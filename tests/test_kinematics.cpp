@@ -1754,6 +1754,27 @@ TEST(ModelBuilder, RejectsValuesThatWouldOverflow) {
        "joint name 'j' is given to frame 'tip' and to dof 'j'"},
       {[&](wbm::Dof&, wbm::Body& b, wbm::Frame& f) { b.joint_name = f.joint_name = std::string("k"); },
        "joint name 'k' is given to frame 'tip' and to body 'link'"},
+      // Limits, axes, couplings, offsets and inertials that are no numbers or no joint.
+      {[&](wbm::Dof& d, wbm::Body& b, wbm::Frame&) {
+         d.continuous = true;
+         b.joint_type = d.type = wbm::JointType::kPrismatic;
+       },
+       "dof 'j': only revolute joints can be continuous"},
+      {[&](wbm::Dof& d, wbm::Body&, wbm::Frame&) { d.upper = std::numeric_limits<double>::infinity(); },
+       "dof 'j': position limits must be finite (or the joint continuous)"},
+      {[&](wbm::Dof& d, wbm::Body&, wbm::Frame&) { d.lower = 0.5, d.upper = 0.2; },
+       "dof 'j': lower limit 0.5 is above upper limit 0.2"},
+      {[&](wbm::Dof& d, wbm::Body&, wbm::Frame&) { d.lower = d.upper = 0.3; },
+       "dof 'j': zero motion range (lower == upper); lock the joint instead"},
+      {[&](wbm::Dof&, wbm::Body& b, wbm::Frame&) { b.axis = Vector3::Zero(); }, "body 'link': joint axis is zero"},
+      {[&](wbm::Dof&, wbm::Body& b, wbm::Frame&) { b.multiplier = nan; },
+       "body 'link': mimic multiplier and offset must be finite"},
+      {[&](wbm::Dof&, wbm::Body& b, wbm::Frame&) { b.X_PJ.R(0, 1) = nan; }, "body 'link': joint offset is not finite"},
+      {[&](wbm::Dof&, wbm::Body& b, wbm::Frame&) { b.inertial.com.x() = nan; },
+       "body 'link': centre of mass and inertia must be finite"},
+      {[&](wbm::Dof&, wbm::Body&, wbm::Frame& f) { f.parent = 1; },  // its own index
+       "frame 'tip': parent frame index 1 is not -1 or the index of another frame"},
+      {[&](wbm::Dof&, wbm::Body&, wbm::Frame& f) { f.name = std::string("link"); }, "duplicate frame 'link'"},
   };
   // One dof driving one body with a frame; `change` edits them before the build.
   auto one_joint_model = [](const std::function<void(wbm::Dof&, wbm::Body&, wbm::Frame&)>& change) {
@@ -1805,6 +1826,132 @@ TEST(ModelBuilder, RejectsValuesThatWouldOverflow) {
   } catch (const wbm::ModelError& e) {
     EXPECT_NE(std::string(e.what()).find("dof 'spare' drives no body"), std::string::npos) << e.what();
   }
+}
+
+// Names and indices a ModelBuilder refuses: two dofs or bodies of one name, a body whose
+// dof or a frame whose body does not exist, a body hung from itself; an axis within the
+// tolerance is normalised. A configuration is checked for its size, numbers and limits
+// (within 1e-9 of a limit counts as at it); the virtual base for its height and pivot.
+TEST(ModelBuilder, RefusesNamesAndIndicesThatNameNothingOrTwoThings) {
+  auto dof_named = [](const char* name) {
+    wbm::Dof dof;
+    dof.name = name;
+    dof.lower = -1.0;
+    dof.upper = 1.0;
+    dof.max_speed = 1.0;
+    return dof;
+  };
+  auto body_named = [](const char* name, int parent, int dof) {
+    wbm::Body body;
+    body.name = name;
+    body.parent = parent;
+    body.dof = dof;
+    return body;
+  };
+  auto expect_error = [](const std::function<void()>& build, const std::string& expected) {
+    try {
+      build();
+      ADD_FAILURE() << "accepted; wanted: " << expected;
+    } catch (const wbm::ModelError& e) {
+      EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << "got: " << e.what();
+    }
+  };
+  expect_error([&] {
+    wbm::ModelBuilder b("two_dofs");
+    b.add_body(body_named("a", -1, b.add_dof(dof_named("j"))));
+    b.add_body(body_named("b", 0, b.add_dof(dof_named("j"))));
+    b.build();
+  }, "duplicate dof 'j'");
+  expect_error([&] {
+    wbm::ModelBuilder b("two_bodies");
+    b.add_body(body_named("a", -1, b.add_dof(dof_named("j"))));
+    b.add_body(body_named("a", 0, b.add_dof(dof_named("k"))));
+    b.build();
+  }, "duplicate body 'a'");
+  expect_error([&] {
+    wbm::ModelBuilder b("dof_out_of_range");
+    b.add_body(body_named("a", -1, b.add_dof(dof_named("j"))));
+    b.add_body(body_named("b", 0, 1));
+    b.build();
+  }, "body 'b': dof index out of range");
+  expect_error([&] {
+    wbm::ModelBuilder b("frame_out_of_range");
+    b.add_body(body_named("a", -1, b.add_dof(dof_named("j"))));
+    wbm::Frame frame;
+    frame.name = "tip";
+    frame.body = 1;
+    b.add_frame(frame);
+    b.build();
+  }, "frame 'tip': body index out of range");
+  expect_error([&] {
+    wbm::ModelBuilder b("own_parent");
+    b.add_body(body_named("a", 0, b.add_dof(dof_named("j"))));
+  }, "body 'a': parent index 0 is not an earlier body");
+  wbm::ModelBuilder b("near_unit_axis");
+  wbm::Body body = body_named("a", -1, b.add_dof(dof_named("j")));
+  body.axis = Vector3(0.0, 0.0, 1.0 + 5e-6);
+  b.add_body(body);
+  const Model model = b.build();
+  EXPECT_EQ(model.body(0).axis, Vector3::UnitZ());
+
+  // The configuration check.
+  Eigen::VectorXd q = Eigen::VectorXd::Constant(1, 1.0 + 1e-10);  // within 1e-9 of the limit
+  EXPECT_NO_THROW(model.check_configuration(q));
+  expect_error([&] { model.check_configuration(Eigen::VectorXd::Constant(1, 1.0 + 1e-6)); },
+               "configuration value 1 of dof 'j' is outside [-1, 1]");
+  expect_error([&] { model.check_configuration(Eigen::VectorXd::Constant(1, std::nan(""))); },
+               "configuration value of dof 'j' is not finite");
+  expect_error([&] { model.check_configuration(Eigen::VectorXd::Zero(2)); },
+               "configuration has 2 values, model 'near_unit_axis' has 1 dofs");
+
+  // The virtual base's height and pivot.
+  for (const double height : {-0.1, std::nan(""), std::numeric_limits<double>::infinity()}) {
+    wbm::ModelBuilder base("base");
+    EXPECT_THROW(wbm::add_virtual_base(base, height, "trunk", wbm::Inertial{}, wbm::Inertial{}), wbm::ModelError)
+        << height;
+  }
+  for (const double pivot : {-0.1, std::nan("")}) {
+    wbm::ModelBuilder base("base");
+    EXPECT_THROW(wbm::add_virtual_base(base, wbm::default_virtual_dofs(1.0), "trunk", wbm::Inertial{}, wbm::Inertial{},
+                                       Eigen::Matrix3d::Identity(), pivot),
+                 wbm::ModelError)
+        << pivot;
+  }
+}
+
+// The virtual base as given: the heel's inertial on the heel body, the pivot above the root
+// link (and read back), a turned root link whose yaw dof still turns about the vertical, and
+// the upright configuration within ranges that exclude zero.
+TEST(ModelBuilder, TheVirtualBaseIsBuiltAsGiven) {
+  std::array<wbm::Dof, 9> dofs = wbm::default_virtual_dofs(1.0);
+  dofs[3].lower = 0.02;  // upper_body_x in [0.02, 0.14]: upright is 0.02, not 0
+  wbm::Inertial heel;
+  heel.mass = 2.0;
+  const wbm::Matrix3 R_UR = wbm::rotation_from_rpy(0.3, -0.2, 0.5);
+  wbm::ModelBuilder builder("base");
+  const int upper = wbm::add_virtual_base(builder, dofs, "trunk", heel, wbm::Inertial{}, R_UR, 0.25);
+  const Model model = builder.build();
+  const wbm::VirtualDofs& v = model.virtual_dofs();
+  EXPECT_EQ(model.body(v.heel_body).inertial.mass, 2.0);
+  EXPECT_EQ(model.total_mass(), 2.0);
+  EXPECT_EQ(wbm::upper_body_pivot_above_root(model), 0.25);
+  const Eigen::VectorXd upright = wbm::upright_base_configuration(model, model.home());
+  EXPECT_EQ(upright[v.ub_x], 0.02);
+  EXPECT_EQ(upright[v.ub_z], 1.0);
+  Data data(model);
+  Eigen::VectorXd q = upright;
+  q[v.ub_x] = 0.05;
+  wbm::forward_kinematics(model, data, q);
+  const Transform pivot = data.X_WB[upper];  // yaw 0: the root link's own turn
+  EXPECT_LT((pivot.R - R_UR).norm(), 1e-12);
+  q[v.ub_yaw] = 0.4;
+  wbm::forward_kinematics(model, data, q);
+  const wbm::Matrix3 Rz = Eigen::AngleAxisd(0.4, Vector3::UnitZ()).toRotationMatrix();
+  EXPECT_LT((data.X_WB[upper].R - Rz * R_UR).norm(), 1e-12);
+  // The root link's origin 0.25 m below the pivot along the upper body's z (vertical here),
+  // which the yaw leaves where it is.
+  EXPECT_LT((data.X_WB[upper].p - pivot.p).norm(), 1e-12);
+  EXPECT_NEAR(pivot.p.z(), 1.0 - 0.25, 1e-12);
 }
 
 // Frame::parent: a frame hangs from a frame of its body, a body's own frame from one of the

@@ -8,6 +8,8 @@
 #include <limits>
 #include <random>
 #include <sstream>
+#include <utility>
+#include <vector>
 
 #include <Eigen/Dense>
 #include <gtest/gtest.h>
@@ -236,8 +238,9 @@ TEST(UnitRows, SmallestSingularValueIsThatOfAllRows) {
 }
 
 // Between cycles the solver tries the previous cycle's rows first. Sequences in which unit
-// rows come and go (rows replaced, dofs frozen, a kept row becoming a unit row) give
-// bit for bit the result of a solver that finds them afresh.
+// rows come and go (rows replaced, dofs frozen, a kept row becoming a unit row, a unit row
+// gaining an entry at another unit row's dof) give bit for bit the result of a solver that
+// finds them afresh.
 TEST(UnitRows, ReusingThePreviousRowsChangesNothing) {
   const Model model = make_paper_model();
   const int n = model.num_dofs();
@@ -247,7 +250,7 @@ TEST(UnitRows, ReusingThePreviousRowsChangesNothing) {
   std::uniform_int_distribution<int> row(0, m - 1), dof(0, n - 1);
   std::uniform_real_distribution<double> u(0.0, 1.0);
   Problem p = random_problem(n, m, rng);
-  int compared = 0;
+  int compared = 0, coupled_compared = 0;
   for (int c = 0; c < property_cases(); ++c) {
     // Small changes, as between cycles, and now and then a structural one.
     for (int i = 0; i < m; ++i)
@@ -266,6 +269,23 @@ TEST(UnitRows, ReusingThePreviousRowsChangesNothing) {
     } else if (change < 0.2) {
       p.free[dof(rng)] = u(rng) < 0.5;
     }
+    // Now and then a unit row gains an entry at another unit row's dof only: it is no unit
+    // row any more, though its entries over the other dofs stay zero.
+    bool coupled = false;
+    if (u(rng) < 0.2) {
+      std::vector<std::pair<int, int>> units;  // (row, its dof)
+      for (int i = 0; i < m; ++i) {
+        int nonzero = 0, at = -1;
+        for (int j = 0; j < n; ++j)
+          if (p.J(i, j) != 0.0) ++nonzero, at = j;
+        if (nonzero == 1) units.emplace_back(i, at);
+      }
+      for (size_t a = 0; a + 1 < units.size() && !coupled; ++a)
+        if (units[a].second != units[a + 1].second && p.free[units[a].second] && p.free[units[a + 1].second]) {
+          p.J(units[a].first, units[a + 1].second) = 0.5;
+          coupled = true;
+        }
+    }
     const SolverStatus a = reused.solve(p.J, p.xdot, p.gradient, p.free, 0.001);
     WholeBodySolver fresh(model, m, raw_parameters());
     const SolverStatus b = fresh.solve(p.J, p.xdot, p.gradient, p.free, 0.001);
@@ -273,8 +293,10 @@ TEST(UnitRows, ReusingThePreviousRowsChangesNothing) {
     ASSERT_EQ(reused.output().qdot_task, fresh.output().qdot_task) << "case " << c << "\n" << p.describe();
     ASSERT_EQ(reused.output().qdot_null, fresh.output().qdot_null) << "case " << c << "\n" << p.describe();
     ++compared;
+    coupled_compared += coupled;
   }
   EXPECT_GT(compared, property_cases() / 4);
+  EXPECT_GT(coupled_compared, property_cases() / 100) << "unit rows coupled to another's dof, compared";
 }
 
 }  // namespace
