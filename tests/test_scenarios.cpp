@@ -1776,6 +1776,27 @@ TEST(Scenarios, LockedLegsAreDrawnStandingOnTheFeet) {
   EXPECT_FALSE(LegPoser(shipped("fig7_top_right_hand"), paper, 0.18).usable());
 }
 
+// A drawn swing foot turns the short way round: a step from yaw pi - 0.02 to -pi + 0.02
+// (0.04 rad across the +-pi cut) passes pi half-way, not zero.
+TEST(Scenarios, ADrawnSwingFootTurnsTheShortWayAcrossPi) {
+  ScenarioRun run;
+  run.model = std::make_unique<Model>(make_paper_model());
+  const VirtualDofs& v = run.model->virtual_dofs();
+  VectorXd q = run.model->home();
+  q[v.heel_yaw] = M_PI - 0.02;
+  run.q.push_back(q);
+  const double T = run.walking_parameters.step_duration;
+  Footstep step;
+  step.time = 1.0;
+  step.left = true;
+  step.pose = standing_foot(true, Vector2(0.05, 0.0), -M_PI + 0.02, run.feet.spacing);
+  run.footsteps.push_back(step);
+  const DrawnFeet middle = drawn_feet(run, step.time - 0.5 * T);
+  EXPECT_NEAR(std::remainder(middle.pose[0].yaw - M_PI, 2 * M_PI), 0.0, 1e-12) << middle.pose[0].yaw;
+  EXPECT_NEAR(std::remainder(drawn_feet(run, step.time).pose[0].yaw - step.pose.yaw, 2 * M_PI), 0.0, 1e-12);
+  EXPECT_NEAR(drawn_feet(run, step.time - T).pose[0].yaw, M_PI - 0.02, 1e-12);  // not moved before the swing
+}
+
 // A task on a frame in a locked leg: the controller moves the leg with the upper body (it
 // is rigid there), the 3D view draws the leg standing on its foot, and the task's frame with
 // the drawn leg, not where the locked leg has it; a task note says so.
