@@ -301,25 +301,11 @@ TEST(Walking, ParametersOutsideTheirRangesThrow) {
   }
   // A model with the heel's x but not its y or yaw.
   for (int missing = 0; missing < 2; ++missing) {
-    ModelBuilder builder("partial_heel");
-    for (const char* name : {"x", "y", "yaw"}) {
-      Dof dof;
-      dof.name = name;
-      dof.lower = -1.0;
-      dof.upper = 1.0;
-      dof.max_speed = 1.0;
-      Body body;
-      body.name = name;
-      body.parent = builder.num_bodies() - 1;
-      body.dof = builder.add_dof(dof);
-      builder.add_body(body);
-    }
     VirtualDofs v;
     v.heel_x = 0;
     v.heel_y = missing == 0 ? -1 : 1;
     v.heel_yaw = missing == 1 ? -1 : 2;
-    builder.set_virtual_dofs(v);
-    const Model partial = builder.build();
+    const Model partial = wbm_test::chain_model("partial_heel", {"x", "y", "yaw"}, v);
     try {
       WalkingModule walking(partial, feet);
       ADD_FAILURE() << "accepted a model without heel " << (missing == 0 ? "y" : "yaw");

@@ -496,25 +496,11 @@ TEST(Balance, ParametersOutsideTheirRangesThrow) {
   EXPECT_THROW(BalanceModule(model, nullptr), ConfigError);
   // A model needs the heel and both upper-body shift dofs.
   for (int missing = 0; missing < 3; ++missing) {
-    ModelBuilder builder("partial");
-    for (const char* name : {"a", "b", "c"}) {
-      Dof dof;
-      dof.name = name;
-      dof.lower = -1.0;
-      dof.upper = 1.0;
-      dof.max_speed = 1.0;
-      Body body;
-      body.name = std::string("link_") + name;
-      body.dof = builder.add_dof(dof);
-      body.parent = builder.num_bodies() - 1;
-      builder.add_body(body);
-    }
     VirtualDofs v;
     v.heel_body = missing == 0 ? -1 : 0;
     v.ub_x = missing == 1 ? -1 : 1;
     v.ub_y = missing == 2 ? -1 : 2;
-    builder.set_virtual_dofs(v);
-    const Model partial = builder.build();
+    const Model partial = wbm_test::chain_model("partial", {"a", "b", "c"}, v);
     try {
       BalanceModule balance(partial, law());
       ADD_FAILURE() << "accepted a model without " << (missing == 0 ? "heel" : missing == 1 ? "ub_x" : "ub_y");

@@ -59,6 +59,16 @@ MatrixXd random_rotation(int m, std::mt19937_64& rng) {
   return Eigen::HouseholderQR<MatrixXd>(G).householderQ();
 }
 
+/// One row (1 x n) on the left elbow with `coefficient` and, if given, on the dof before it
+/// (the shoulder's yaw) with `shoulder`.
+MatrixXd elbow_row(const Model& model, double coefficient, double shoulder = 0.0) {
+  MatrixXd J = MatrixXd::Zero(1, model.num_dofs());
+  const int elbow = model.dof_index("l_elbow");
+  J(0, elbow) = coefficient;
+  J(0, elbow - 1) = shoulder;
+  return J;
+}
+
 TEST(Solver, ParametersOutsideTheirRangesThrow) {
   const Model model = make_paper_model();
   const double nan = std::nan(""), inf = std::numeric_limits<double>::infinity();
@@ -219,8 +229,7 @@ TEST(Solver, AConfigurationOfTheWrongSizeIsInvalid) {
   const Model model = make_paper_model();
   const int n = model.num_dofs();
   WholeBodySolver solver(model, 1);
-  MatrixXd J = MatrixXd::Zero(1, n);
-  J(0, model.dof_index("l_elbow")) = 1.0;
+  const MatrixXd J = elbow_row(model, 1.0);
   const VectorXd short_q = VectorXd::Zero(n - 1);
   const SolverStatus st = solver.solve(J, VectorXd::Ones(1), VectorXd::Zero(n), Mask::Constant(n, true), 0.001, &short_q);
   EXPECT_TRUE(st.has(kInvalidInput));
@@ -236,8 +245,7 @@ TEST(Solver, FreezingTheLastFreeDofAtItsLimitZeroesEveryPart) {
   WholeBodySolver solver(model, 1);
   Mask free = Mask::Constant(n, false);
   free[elbow] = true;
-  MatrixXd J = MatrixXd::Zero(1, n);
-  J(0, elbow) = 1.0;
+  const MatrixXd J = elbow_row(model, 1.0);
   VectorXd q = model.home();
   q[elbow] = model.dof(elbow).upper;
   VectorXd gradient = VectorXd::Zero(n);
@@ -258,9 +266,7 @@ TEST(Solver, ADofTheUserFreezesIsNotFrozenAtItsLimit) {
   const int n = model.num_dofs();
   const int elbow = model.dof_index("l_elbow");
   WholeBodySolver solver(model, 1);
-  MatrixXd J = MatrixXd::Zero(1, n);
-  J(0, elbow) = 1.0;
-  J(0, elbow - 1) = 0.5;
+  const MatrixXd J = elbow_row(model, 1.0, 0.5);
   VectorXd q = model.home();
   q[elbow] = model.dof(elbow).upper;
   Mask free = Mask::Constant(n, true);
@@ -286,9 +292,7 @@ TEST(Solver, ABrakedDofsPartsAddUpToItsRate) {
   const int n = model.num_dofs();
   const int elbow = model.dof_index("l_elbow");
   WholeBodySolver solver(model, 1);
-  MatrixXd J = MatrixXd::Zero(1, n);
-  J(0, elbow) = 1.0;
-  J(0, elbow - 1) = 0.3;
+  const MatrixXd J = elbow_row(model, 1.0, 0.3);
   VectorXd q = model.home();
   q[elbow] = model.dof(elbow).upper - 1e-4;
   VectorXd gradient = VectorXd::Zero(n);
@@ -313,9 +317,8 @@ TEST(Solver, AGrowingAlternationRaisesTheDampingAndADyingOneDoesNot) {
   const Model model = make_paper_model();
   const int n = model.num_dofs();
   const int elbow = model.dof_index("l_elbow");
-  MatrixXd J = MatrixXd::Zero(1, n);
   WholeBodySolver solver(model, 1, raw_parameters());
-  J(0, elbow) = 0.25 * solver.parameters().singular_threshold / model.dof(elbow).work_range;
+  const MatrixXd J = elbow_row(model, 0.25 * solver.parameters().singular_threshold / model.dof(elbow).work_range);
   const Mask free = Mask::Constant(n, true);
   const VectorXd gradient = VectorXd::Zero(n);
   // q_dot changes +0.1, -0.15, +0.25, -0.3, +0.4 (times a constant): the fourth turn in a
@@ -344,11 +347,7 @@ TEST(Solver, ATurnBackRaisesTheDampingFromOnePercentOfTheSpeedLimit) {
   const double vmax = model.dof(elbow).max_speed;
   WholeBodySolver solver(model, 1, raw_parameters());
   const double s = 0.25 * solver.parameters().singular_threshold / model.dof(elbow).work_range;
-  auto row = [&](double coefficient) {
-    MatrixXd J = MatrixXd::Zero(1, n);
-    J(0, elbow) = coefficient;
-    return J;
-  };
+  auto row = [&](double coefficient) { return elbow_row(model, coefficient); };
   const Mask free = Mask::Constant(n, true);
   const VectorXd gradient = VectorXd::Zero(n);
   solver.solve(row(s), VectorXd::Ones(1), gradient, free, 0.001);

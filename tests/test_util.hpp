@@ -28,6 +28,28 @@ inline std::string read_file(const std::string& path) {
   return text.str();
 }
 
+/// A chain of one-dof revolute bodies (limits +-1, speed 1), each named after its dof,
+/// recording the virtual dofs given (say a heel without its yaw): for the modules' checks
+/// of the models they are given.
+inline wbm::Model chain_model(const std::string& name, const std::vector<std::string>& dofs,
+                              const wbm::VirtualDofs& virtual_dofs) {
+  wbm::ModelBuilder builder(name);
+  for (const std::string& dof_name : dofs) {
+    wbm::Dof dof;
+    dof.name = dof_name;
+    dof.lower = -1.0;
+    dof.upper = 1.0;
+    dof.max_speed = 1.0;
+    wbm::Body body;
+    body.name = dof_name;
+    body.parent = builder.num_bodies() - 1;
+    body.dof = builder.add_dof(dof);
+    builder.add_body(body);
+  }
+  builder.set_virtual_dofs(virtual_dofs);
+  return builder.build();
+}
+
 /// Uniformly random configuration within the limits; continuous joints in [-pi, pi].
 inline Eigen::VectorXd random_configuration(const wbm::Model& model, std::mt19937_64& rng) {
   Eigen::VectorXd q(model.num_dofs());
