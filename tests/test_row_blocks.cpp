@@ -93,12 +93,7 @@ BlockProblem random_blocks(int n, std::mt19937_64& rng) {
   return p;
 }
 
-SolverParameters raw_parameters() {
-  SolverParameters s;
-  s.limit_speeds = false;
-  s.nullspace_rate_change_limit = 0.0;
-  return s;
-}
+using wbm_test::raw_parameters;
 
 // The blocks found from A directly, and whether they are the previous call's: the solver
 // restarts its per-block iteration when they are not (same count, labels and row count).

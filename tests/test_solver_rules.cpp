@@ -9,10 +9,10 @@
 #include <string>
 #include <vector>
 
-#include <Eigen/Eigenvalues>
 #include <Eigen/QR>
 #include <gtest/gtest.h>
 
+#include "test_util.hpp"
 #include "wbm/controller.hpp"
 #include "wbm/errors.hpp"
 #include "wbm/kinematics.hpp"
@@ -30,33 +30,24 @@ using namespace wbm;
 using Eigen::MatrixXd;
 using Eigen::VectorXd;
 
-/// Solver parameters for exact checks of the solve itself: no speed scaling, no jerk limit.
-SolverParameters raw_parameters() {
-  SolverParameters p;
-  p.limit_speeds = false;
-  p.nullspace_rate_change_limit = 0.0;
-  return p;
+using wbm_test::raw_parameters;
+using wbm_test::throws_with;
+
+/// A random orthogonal matrix of R^m (seeded), for eigenvectors that no start vector favours.
+MatrixXd random_rotation(int m, std::mt19937_64& rng) {
+  std::normal_distribution<double> normal(0.0, 1.0);
+  MatrixXd G(m, m);
+  for (int i = 0; i < G.size(); ++i) G.data()[i] = normal(rng);
+  return Eigen::HouseholderQR<MatrixXd>(G).householderQ();
 }
 
 /// J (m x n) whose weighted Gram matrix J W^-1 J^T is B B^T, W^-1 = diag(work_range^2):
 /// J = B Q^T diag(1 / work_range) with Q (n x m) orthonormal columns on every dof.
 MatrixXd jacobian_with_gram(const Model& model, const MatrixXd& B, std::mt19937_64& rng) {
   const int n = model.num_dofs(), m = static_cast<int>(B.rows());
-  std::normal_distribution<double> normal(0.0, 1.0);
-  MatrixXd G(n, m);
-  for (int i = 0; i < G.size(); ++i) G.data()[i] = normal(rng);
-  const MatrixXd Q = Eigen::HouseholderQR<MatrixXd>(G).householderQ() * MatrixXd::Identity(n, m);
-  MatrixXd J = B * Q.transpose();
+  MatrixXd J = B * random_rotation(n, rng).leftCols(m).transpose();
   for (int i = 0; i < n; ++i) J.col(i) /= model.dof(i).work_range;
   return J;
-}
-
-/// A random rotation of R^m (seeded), for eigenvectors that no start vector favours.
-MatrixXd random_rotation(int m, std::mt19937_64& rng) {
-  std::normal_distribution<double> normal(0.0, 1.0);
-  MatrixXd G(m, m);
-  for (int i = 0; i < G.size(); ++i) G.data()[i] = normal(rng);
-  return Eigen::HouseholderQR<MatrixXd>(G).householderQ();
 }
 
 /// One row (1 x n) on the left elbow with `coefficient` and, if given, on the dof before it
@@ -89,12 +80,7 @@ TEST(Solver, ParametersOutsideTheirRangesThrow) {
     if (b.field == "max_damping") p.max_damping = b.value;
     if (b.field == "nullspace_rate_change_limit") p.nullspace_rate_change_limit = b.value;
     const std::string what = b.field + " = " + std::to_string(b.value);
-    try {
-      WholeBodySolver solver(model, 3, p);
-      ADD_FAILURE() << "accepted " << what;
-    } catch (const ConfigError& e) {
-      EXPECT_NE(std::string(e.what()).find("solver: " + b.field), std::string::npos) << e.what();
-    }
+    EXPECT_TRUE(throws_with<ConfigError>([&] { WholeBodySolver(model, 3, p); }, "solver: " + b.field)) << what;
     WholeBodySolver solver(model, 3);
     EXPECT_THROW(solver.set_parameters(p), ConfigError) << what;
     Controller controller(model);
@@ -390,7 +376,8 @@ TEST(Solver, IntegrationClampsAndFlagsOnlyRealOvershoots) {
     ASSERT_GE(next[elbow], lower);
     ASSERT_FALSE(flags & kJointLimitClamped) << "distance " << d;
   }
-  // 1e-11 past (ten thousand ulps of 1e-3, yet below what anything else measures) is a clamp.
+  // 1e-11 past (ten thousand times the rounding tolerance 4 eps (1 + |limit|) at this limit
+  // of 0) is a clamp.
   q[elbow] = upper - 1e-3;
   qdot[elbow] = (1e-3 + 1e-11) / dt;
   flags = integrate(model, q, qdot, dt, next);

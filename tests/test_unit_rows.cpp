@@ -83,12 +83,7 @@ int unit_row_dof(const Problem& p, int i) {
   return count == 1 ? k : -1;
 }
 
-SolverParameters raw_parameters() {
-  SolverParameters s;
-  s.limit_speeds = false;
-  s.nullspace_rate_change_limit = 0.0;
-  return s;
-}
+using wbm_test::raw_parameters;
 
 /// Task and null-space parts by the plain formulas with the damping the solver reported for
 /// each row: A = J W^-1 J^T + diag(lambda_i^2), q_task = W^-1 J^T A^-1 x_dot,

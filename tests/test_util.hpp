@@ -1,12 +1,13 @@
 #pragma once
 /// @file
 /// Helpers shared by the tests: seeded random configurations, the rotation logarithm for
-/// finite differences, and printing.
+/// finite differences, printing, solver parameters for exact checks, errors and their text.
 
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <functional>
 #include <numeric>
 #include <random>
 #include <sstream>
@@ -15,8 +16,10 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <gtest/gtest.h>
 
 #include "wbm/model.hpp"
+#include "wbm/solver.hpp"
 
 namespace wbm_test {
 
@@ -26,6 +29,26 @@ inline std::string read_file(const std::string& path) {
   std::stringstream text;
   text << in.rdbuf();
   return text.str();
+}
+
+/// Solver parameters for exact checks of the solve itself: no speed scaling, no jerk limit.
+inline wbm::SolverParameters raw_parameters() {
+  wbm::SolverParameters p;
+  p.limit_speeds = false;
+  p.nullspace_rate_change_limit = 0.0;
+  return p;
+}
+
+/// Success if `call` throws an E whose message contains `expected`; else what it did.
+template <class E>
+testing::AssertionResult throws_with(const std::function<void()>& call, const std::string& expected) {
+  try {
+    call();
+  } catch (const E& e) {
+    if (std::string(e.what()).find(expected) != std::string::npos) return testing::AssertionSuccess();
+    return testing::AssertionFailure() << "threw \"" << e.what() << "\", wanted \"" << expected << "\"";
+  }
+  return testing::AssertionFailure() << "accepted; wanted \"" << expected << "\"";
 }
 
 /// A chain of one-dof revolute bodies (limits +-1, speed 1), each named after its dof,
